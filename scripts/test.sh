@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# The test command: installs what is needed (apt), builds everything, runs every gtest and rostest.
+# Exits non-zero on any failure; ends with a "N passed, N failed" line.
+set -eo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
+start=$(date +%s)
+"$EKF_SLAM_ROOT/scripts/build.sh"
+echo "build: $(( $(date +%s) - start )) s"
+
+source "$EKF_SLAM_BUILD/devel/setup.bash"
+rm -rf "$EKF_SLAM_BUILD/test_results"
+cd "$EKF_SLAM_BUILD"
+set +e
+ctest --output-on-failure --timeout 600
+ctest_rc=$?
+set -e
+# ctest only knows targets; count test cases from the JUnit files that gtest and rostest write.
+summary=$(/usr/bin/python3 - "$EKF_SLAM_BUILD/test_results" <<'PY'
+import sys, pathlib, xml.etree.ElementTree as ET
+root = pathlib.Path(sys.argv[1])
+tests = fails = skipped = 0
+for f in root.rglob("*.xml"):
+    try:
+        r = ET.parse(f).getroot()
+    except ET.ParseError:
+        fails += 1
+        continue
+    suites = [r] if r.tag == "testsuite" else r.findall("testsuite")
+    for s in suites:
+        for case in s.iter("testcase"):
+            tests += 1
+            if case.find("failure") is not None or case.find("error") is not None:
+                fails += 1
+            elif case.find("skipped") is not None:
+                skipped += 1
+print(tests - fails - skipped, fails, skipped)
+PY
+)
+read -r passed failed skipped <<< "$summary"
+if [[ $ctest_rc -ne 0 && $failed -eq 0 ]]; then failed=1; fi  # a crashed binary writes no XML
+echo "total time: $(( $(date +%s) - start )) s"
+echo "$passed passed, $failed failed, $skipped skipped"
+[[ $ctest_rc -eq 0 && $failed -eq 0 && $passed -gt 0 ]]

@@ -1,0 +1,104 @@
+// EKF-SLAM state: vehicle pose plus 2D point landmarks, dense covariance. ROS-free (Eigen only).
+//
+// State layout: [x, y, yaw, m_0x, m_0y, m_1x, m_1y, ...]. Landmarks carry stable ids that survive
+// removals; their slot in the state vector (index) may change when another landmark is removed.
+#pragma once
+
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ekf_slam/core/motion_models.h"
+#include "ekf_slam/core/observation_model.h"
+
+namespace ekf_slam {
+
+using LandmarkId = std::int64_t;
+constexpr LandmarkId kNoLandmark = -1;
+
+/// One observation paired with a map landmark, for EkfSlam::update.
+struct Pairing {
+  LandmarkId id;
+  Eigen::Vector2d z;  ///< (range, bearing) in the sensor frame
+  Eigen::Matrix2d R;  ///< measurement noise
+};
+
+class EkfSlam {
+ public:
+  EkfSlam();
+
+  /// Drops every landmark and sets the pose and its covariance. Ids restart at 0.
+  void reset(const Eigen::Vector3d& pose = Eigen::Vector3d::Zero(),
+             const Eigen::Matrix3d& pose_cov = Eigen::Matrix3d::Zero());
+
+  // --- read access --------------------------------------------------------------------------
+  const Eigen::VectorXd& mean() const { return x_; }
+  const Eigen::MatrixXd& covariance() const { return P_; }
+  Eigen::Vector3d pose() const { return x_.head<3>(); }
+  Eigen::Matrix3d poseCovariance() const { return P_.topLeftCorner<3, 3>(); }
+
+  std::size_t numLandmarks() const { return ids_.size(); }
+  /// Ids in state order: landmark k occupies rows 3 + 2k, 4 + 2k.
+  const std::vector<LandmarkId>& landmarkIds() const { return ids_; }
+  /// State-order index of a landmark, or -1 when the id is not in the map.
+  int indexOf(LandmarkId id) const;
+  bool contains(LandmarkId id) const { return indexOf(id) >= 0; }
+  /// Row of the landmark's x in the state vector (3 + 2 * index).
+  static int stateRow(int index) { return 3 + 2 * index; }
+  Eigen::Vector2d landmark(int index) const { return x_.segment<2>(stateRow(index)); }
+  Eigen::Matrix2d landmarkCovariance(int index) const {
+    return P_.block<2, 2>(stateRow(index), stateRow(index));
+  }
+
+  // --- filter steps -------------------------------------------------------------------------
+  /// Prediction from a motion model step: pose <- step.pose,
+  /// P_vv <- F P_vv F^T + Q, P_vm <- F P_vm. O(n): the map block is untouched. Returns false (and
+  /// leaves the state unchanged) when the step is not finite.
+  bool predict(const MotionStep& step);
+
+  /// Batch update with every pairing of one scan: x += K v, P -= K S K^T (symmetrised), S
+  /// factorised with Cholesky. Returns false (and leaves the state unchanged) when S is not
+  /// positive definite, a pairing names an unknown id or anything is not finite. Optionally
+  /// returns the NIS v^T S^-1 v.
+  bool update(const std::vector<Pairing>& pairings, const RangeBearingModel& model,
+              double* nis = nullptr);
+
+  /// Initialises a landmark from observation z with the inverse observation model and both of
+  /// its Jacobians. O(n) arithmetic (plus the copy of P into its grown storage). Returns its new
+  /// id, or kNoLandmark (state unchanged) when z, R or the result is not finite.
+  LandmarkId addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d& R,
+                         const RangeBearingModel& model);
+
+  /// Inserts a landmark with a known mean and covariance, uncorrelated with the rest (used to
+  /// load a saved map). Uses `id` when given and free, else the next id. Returns the id.
+  LandmarkId insertLandmark(const Eigen::Vector2d& position, const Eigen::Matrix2d& cov,
+                            LandmarkId id = kNoLandmark);
+
+  /// Replaces the whole state (mean 3 + 2n, covariance, n ids, all distinct and >= 0), e.g. to
+  /// replay a recorded association problem. Throws std::invalid_argument on inconsistent sizes.
+  void setState(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance,
+                const std::vector<LandmarkId>& ids);
+
+  /// Deletes a landmark's rows and columns. Returns false if the id is unknown.
+  bool removeLandmark(LandmarkId id);
+
+ private:
+  Eigen::VectorXd x_;
+  Eigen::MatrixXd P_;
+  std::vector<LandmarkId> ids_;
+  std::unordered_map<LandmarkId, int> index_of_;
+  LandmarkId next_id_ = 0;
+
+  // Update workspaces, kept between calls to avoid reallocating them each scan.
+  Eigen::MatrixXd pht_;  // P H^T, then P H^T L^-T
+  Eigen::MatrixXd s_;    // S, then its Cholesky factor
+  Eigen::VectorXd v_;    // innovation, then L^-1 v
+  Eigen::VectorXd dx_;   // state correction
+  std::vector<int> rows_;
+  std::vector<Matrix23d> hv_;
+  std::vector<Eigen::Matrix2d, Eigen::aligned_allocator<Eigen::Matrix2d>> hm_;
+};
+
+}  // namespace ekf_slam

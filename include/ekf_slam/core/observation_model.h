@@ -1,0 +1,42 @@
+// Range-bearing observation of a 2D point landmark by a sensor mounted on the vehicle.
+// ROS-free (Eigen only).
+#pragma once
+
+#include <Eigen/Core>
+
+namespace ekf_slam {
+
+using Matrix23d = Eigen::Matrix<double, 2, 3>;
+
+/// z = (range, bearing) of landmark m seen from a sensor at `sensor_offset` (x, y, yaw in the
+/// vehicle frame) on a vehicle at pose xv = (x, y, yaw). Bearing is measured from the sensor's
+/// x axis, counter-clockwise positive (sensor_msgs/LaserScan convention), wrapped to (-pi, pi].
+class RangeBearingModel {
+ public:
+  explicit RangeBearingModel(const Eigen::Vector3d& sensor_offset = Eigen::Vector3d::Zero())
+      : offset_(sensor_offset) {}
+
+  void setSensorOffset(const Eigen::Vector3d& offset) { offset_ = offset; }
+  const Eigen::Vector3d& sensorOffset() const { return offset_; }
+
+  /// Sensor pose in the world frame for vehicle pose xv.
+  Eigen::Vector3d sensorPose(const Eigen::Vector3d& xv) const;
+
+  /// Predicted observation h(xv, m); optional Jacobians w.r.t. the vehicle pose (2x3) and the
+  /// landmark (2x2).
+  Eigen::Vector2d predict(const Eigen::Vector3d& xv, const Eigen::Vector2d& m,
+                          Matrix23d* H_pose = nullptr, Eigen::Matrix2d* H_landmark = nullptr) const;
+
+  /// Inverse model g(xv, z): landmark position; optional Jacobians w.r.t. the vehicle pose (2x3)
+  /// and the observation (2x2).
+  Eigen::Vector2d inverse(const Eigen::Vector3d& xv, const Eigen::Vector2d& z,
+                          Matrix23d* G_pose = nullptr, Eigen::Matrix2d* G_obs = nullptr) const;
+
+  /// z - z_hat with the bearing wrapped to (-pi, pi].
+  static Eigen::Vector2d innovation(const Eigen::Vector2d& z, const Eigen::Vector2d& z_hat);
+
+ private:
+  Eigen::Vector3d offset_;
+};
+
+}  // namespace ekf_slam

@@ -1,0 +1,64 @@
+// Range-bearing observation model with a sensor offset on the vehicle.
+#include "ekf_slam/core/observation_model.h"
+
+#include <cmath>
+
+#include "ekf_slam/core/angles.h"
+
+namespace ekf_slam {
+
+Eigen::Vector3d RangeBearingModel::sensorPose(const Eigen::Vector3d& xv) const {
+  const double c = std::cos(xv(2));
+  const double s = std::sin(xv(2));
+  return Eigen::Vector3d(xv(0) + c * offset_(0) - s * offset_(1),
+                         xv(1) + s * offset_(0) + c * offset_(1), wrapAngle(xv(2) + offset_(2)));
+}
+
+Eigen::Vector2d RangeBearingModel::predict(const Eigen::Vector3d& xv, const Eigen::Vector2d& m,
+                                           Matrix23d* H_pose, Eigen::Matrix2d* H_landmark) const {
+  const double c = std::cos(xv(2));
+  const double s = std::sin(xv(2));
+  // Sensor position and its derivative w.r.t. the vehicle yaw (the lever arm rotated by 90 deg).
+  const double lx = c * offset_(0) - s * offset_(1);
+  const double ly = s * offset_(0) + c * offset_(1);
+  const double dx = m(0) - (xv(0) + lx);
+  const double dy = m(1) - (xv(1) + ly);
+  const double q = dx * dx + dy * dy;
+  const double r = std::sqrt(q);
+  const Eigen::Vector2d z(r, wrapAngle(std::atan2(dy, dx) - xv(2) - offset_(2)));
+
+  if (H_pose || H_landmark) {
+    // dz/dm; at r = 0 this is inf/NaN, which the EKF detects and rejects.
+    const double a = dx / r, b = dy / r;
+    const double e = -dy / q, f = dx / q;
+    if (H_landmark) *H_landmark << a, b, e, f;
+    if (H_pose) {
+      // The sensor position moves with the pose as (1, 0, -ly), (0, 1, lx); the bearing also loses
+      // the yaw directly.
+      *H_pose << -a, -b, a * ly - b * lx, -e, -f, e * ly - f * lx - 1.0;
+    }
+  }
+  return z;
+}
+
+Eigen::Vector2d RangeBearingModel::inverse(const Eigen::Vector3d& xv, const Eigen::Vector2d& z,
+                                           Matrix23d* G_pose, Eigen::Matrix2d* G_obs) const {
+  const double c = std::cos(xv(2));
+  const double s = std::sin(xv(2));
+  const double lx = c * offset_(0) - s * offset_(1);
+  const double ly = s * offset_(0) + c * offset_(1);
+  const double t = xv(2) + offset_(2) + z(1);  // world direction of the beam
+  const double ct = std::cos(t);
+  const double st = std::sin(t);
+  const double r = z(0);
+  if (G_pose) *G_pose << 1.0, 0.0, -ly - r * st, 0.0, 1.0, lx + r * ct;
+  if (G_obs) *G_obs << ct, -r * st, st, r * ct;
+  return Eigen::Vector2d(xv(0) + lx + r * ct, xv(1) + ly + r * st);
+}
+
+Eigen::Vector2d RangeBearingModel::innovation(const Eigen::Vector2d& z,
+                                              const Eigen::Vector2d& z_hat) {
+  return Eigen::Vector2d(z(0) - z_hat(0), wrapAngle(z(1) - z_hat(1)));
+}
+
+}  // namespace ekf_slam

@@ -1,0 +1,168 @@
+// Range-bearing observation model: values, Jacobians (vs central differences), inverse, wrap.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+
+#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/observation_model.h"
+
+namespace ekf_slam {
+namespace {
+
+constexpr double kStep = 1e-6;
+constexpr double kTol = 1e-7;
+
+// Central difference of f (output dim 2) w.r.t. x; `angle_row` (or -1) is wrapped in the
+// difference so a bearing crossing +-pi does not produce a 2 pi jump.
+template <int N, typename Fun>
+Eigen::Matrix<double, 2, N> numericJacobian(Fun f, const Eigen::Matrix<double, N, 1>& x,
+                                            int angle_row) {
+  Eigen::Matrix<double, 2, N> J;
+  for (int k = 0; k < N; ++k) {
+    Eigen::Matrix<double, N, 1> xp = x, xm = x;
+    xp(k) += kStep;
+    xm(k) -= kStep;
+    Eigen::Vector2d d = f(xp) - f(xm);
+    if (angle_row >= 0) d(angle_row) = wrapAngle(d(angle_row));
+    J.col(k) = d / (2.0 * kStep);
+  }
+  return J;
+}
+
+void checkPredictJacobians(const RangeBearingModel& model, const Eigen::Vector3d& xv,
+                           const Eigen::Vector2d& m) {
+  Matrix23d Hv;
+  Eigen::Matrix2d Hm;
+  model.predict(xv, m, &Hv, &Hm);
+  const Matrix23d Hv_num =
+      numericJacobian<3>([&](const Eigen::Vector3d& p) { return model.predict(p, m); }, xv, 1);
+  const Eigen::Matrix2d Hm_num =
+      numericJacobian<2>([&](const Eigen::Vector2d& q) { return model.predict(xv, q); }, m, 1);
+  EXPECT_LT((Hv - Hv_num).norm(), kTol) << "analytic\n" << Hv << "\nnumeric\n" << Hv_num;
+  EXPECT_LT((Hm - Hm_num).norm(), kTol) << "analytic\n" << Hm << "\nnumeric\n" << Hm_num;
+}
+
+void checkInverseJacobians(const RangeBearingModel& model, const Eigen::Vector3d& xv,
+                           const Eigen::Vector2d& z) {
+  Matrix23d Gv;
+  Eigen::Matrix2d Gz;
+  model.inverse(xv, z, &Gv, &Gz);
+  const Matrix23d Gv_num =
+      numericJacobian<3>([&](const Eigen::Vector3d& p) { return model.inverse(p, z); }, xv, -1);
+  const Eigen::Matrix2d Gz_num =
+      numericJacobian<2>([&](const Eigen::Vector2d& q) { return model.inverse(xv, q); }, z, -1);
+  EXPECT_LT((Gv - Gv_num).norm(), kTol) << "analytic\n" << Gv << "\nnumeric\n" << Gv_num;
+  EXPECT_LT((Gz - Gz_num).norm(), kTol) << "analytic\n" << Gz << "\nnumeric\n" << Gz_num;
+}
+
+TEST(RangeBearingModel, PredictHandComputedNoOffset) {
+  const RangeBearingModel model;
+  // Robot at (1, 2) facing +y; landmark 3 ahead and 4 to its right.
+  const Eigen::Vector2d z = model.predict(Eigen::Vector3d(1, 2, M_PI / 2), Eigen::Vector2d(5, 5));
+  EXPECT_NEAR(z(0), 5.0, 1e-12);
+  EXPECT_NEAR(z(1), std::atan2(-4.0, 3.0), 1e-12);
+}
+
+TEST(RangeBearingModel, PredictHandComputedWithOffset) {
+  // Sensor 2 m ahead of base_link, rotated +90 deg: on a robot at the origin facing +x it sits at
+  // (2, 0) looking along +y. A landmark at (2, 3) is straight ahead of it.
+  const RangeBearingModel model(Eigen::Vector3d(2, 0, M_PI / 2));
+  const Eigen::Vector3d s = model.sensorPose(Eigen::Vector3d::Zero());
+  EXPECT_NEAR(s(0), 2.0, 1e-12);
+  EXPECT_NEAR(s(1), 0.0, 1e-12);
+  EXPECT_NEAR(s(2), M_PI / 2, 1e-12);
+  Eigen::Vector2d z = model.predict(Eigen::Vector3d::Zero(), Eigen::Vector2d(2, 3));
+  EXPECT_NEAR(z(0), 3.0, 1e-12);
+  EXPECT_NEAR(z(1), 0.0, 1e-12);
+  // Landmark at (0, 0): 2 m to the sensor's left (it looks along +y).
+  z = model.predict(Eigen::Vector3d::Zero(), Eigen::Vector2d(0, 0));
+  EXPECT_NEAR(z(0), 2.0, 1e-12);
+  EXPECT_NEAR(z(1), M_PI / 2, 1e-12);
+}
+
+TEST(RangeBearingModel, BearingWrapsBehindRobot) {
+  const RangeBearingModel model;
+  const Eigen::Vector3d xv(0, 0, 0);
+  // Exactly behind: +pi (the range is (-pi, pi]).
+  EXPECT_DOUBLE_EQ(model.predict(xv, Eigen::Vector2d(-10, 0))(1), M_PI);
+  // Slightly right of behind: just above -pi; slightly left: just below +pi.
+  EXPECT_NEAR(model.predict(xv, Eigen::Vector2d(-10, -0.1))(1), -M_PI + std::atan(0.01), 1e-12);
+  EXPECT_NEAR(model.predict(xv, Eigen::Vector2d(-10, 0.1))(1), M_PI - std::atan(0.01), 1e-12);
+  // Robot facing -x at yaw = pi: a landmark ahead has bearing 0, not 2 pi.
+  EXPECT_NEAR(model.predict(Eigen::Vector3d(0, 0, M_PI), Eigen::Vector2d(-5, 0))(1), 0.0, 1e-12);
+  // Robot at yaw -3, landmark in direction +0.3: raw atan2 - yaw = 3.3 must wrap to 3.3 - 2 pi.
+  const double b = model.predict(Eigen::Vector3d(0, 0, -3.0),
+                                 5.0 * Eigen::Vector2d(std::cos(0.3), std::sin(0.3)))(1);
+  EXPECT_NEAR(b, 3.3 - 2 * M_PI, 1e-12);
+}
+
+TEST(RangeBearingModel, InnovationWrapsBearing) {
+  const Eigen::Vector2d v = RangeBearingModel::innovation(Eigen::Vector2d(10, -M_PI + 0.01),
+                                                          Eigen::Vector2d(9, M_PI - 0.01));
+  EXPECT_NEAR(v(0), 1.0, 1e-12);
+  EXPECT_NEAR(v(1), 0.02, 1e-12);
+}
+
+TEST(RangeBearingModel, PredictJacobiansNumeric) {
+  const RangeBearingModel plain;
+  const RangeBearingModel offset(Eigen::Vector3d(3.78, 0.5, 0.0));
+  const RangeBearingModel rotated(Eigen::Vector3d(-0.4, 1.2, -2.5));
+  for (const RangeBearingModel* model : {&plain, &offset, &rotated}) {
+    checkPredictJacobians(*model, Eigen::Vector3d(1, 2, 0.3), Eigen::Vector2d(10, -4));
+    checkPredictJacobians(*model, Eigen::Vector3d(-3, 5, 2.9), Eigen::Vector2d(-20, 7));
+    checkPredictJacobians(*model, Eigen::Vector3d(0, 0, -3.1), Eigen::Vector2d(0.5, 30));
+    // Landmark right behind the sensor: the bearing is at the wrap point.
+    const Eigen::Vector3d xv(2, -1, 0.7);
+    const Eigen::Vector3d s = model->sensorPose(xv);
+    const Eigen::Vector2d behind =
+        s.head<2>() - 8.0 * Eigen::Vector2d(std::cos(s(2)), std::sin(s(2)));
+    checkPredictJacobians(*model, xv, behind);
+  }
+}
+
+TEST(RangeBearingModel, InverseJacobiansNumeric) {
+  const RangeBearingModel plain;
+  const RangeBearingModel offset(Eigen::Vector3d(3.78, 0.5, 0.0));
+  const RangeBearingModel rotated(Eigen::Vector3d(-0.4, 1.2, -2.5));
+  for (const RangeBearingModel* model : {&plain, &offset, &rotated}) {
+    checkInverseJacobians(*model, Eigen::Vector3d(1, 2, 0.3), Eigen::Vector2d(12, 0.4));
+    checkInverseJacobians(*model, Eigen::Vector3d(-3, 5, 2.9), Eigen::Vector2d(40, -1.5));
+    checkInverseJacobians(*model, Eigen::Vector3d(0, 0, -3.1), Eigen::Vector2d(3, M_PI));
+  }
+}
+
+TEST(RangeBearingModel, InverseHandComputed) {
+  const RangeBearingModel model(Eigen::Vector3d(1, 0, 0));
+  // Robot at (1, 1) facing +y: sensor at (1, 2); beam at -90 deg points along +x.
+  const Eigen::Vector2d m =
+      model.inverse(Eigen::Vector3d(1, 1, M_PI / 2), Eigen::Vector2d(4, -M_PI / 2));
+  EXPECT_NEAR(m(0), 5.0, 1e-12);
+  EXPECT_NEAR(m(1), 2.0, 1e-12);
+}
+
+TEST(RangeBearingModel, RoundTrips) {
+  const RangeBearingModel model(Eigen::Vector3d(3.78, 0.5, 0.2));
+  const Eigen::Vector3d poses[] = {{0, 0, 0}, {5, -3, 3.0}, {-10, 2, -2.2}};
+  const Eigen::Vector2d obs[] = {{1, 0}, {25, 1.2}, {7, -3.0}, {3, M_PI}};
+  for (const auto& xv : poses) {
+    for (const auto& z : obs) {
+      const Eigen::Vector2d z2 = model.predict(xv, model.inverse(xv, z));
+      EXPECT_NEAR(z2(0), z(0), 1e-10);
+      EXPECT_NEAR(wrapAngle(z2(1) - z(1)), 0.0, 1e-10);
+      EXPECT_GT(z2(1), -M_PI);
+      EXPECT_LE(z2(1), M_PI);
+    }
+    const Eigen::Vector2d m(4, -6);
+    EXPECT_LT((model.inverse(xv, model.predict(xv, m)) - m).norm(), 1e-10);
+  }
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

@@ -10,8 +10,8 @@
 namespace ekf_slam {
 namespace victoria_park {
 
-constexpr int kBeams = 361;                 ///< 0.5 deg apart, 180 deg, beam 0 to the right
-constexpr double kNoReturn = 81.91;         ///< masked 13-bit value 8191 cm: no return
+constexpr int kBeams = 361;                    ///< 0.5 deg apart, 180 deg, beam 0 to the right
+constexpr double kNoReturn = 81.91;            ///< masked 13-bit value 8191 cm: no return
 constexpr std::int64_t kAsciiEpochMs = 20967;  ///< t_ascii = (t_ms - 20967) / 1000
 
 /// aa3_dr.mat: 40 Hz encoder speed (rear-left wheel) and front steering angle.
@@ -30,8 +30,8 @@ struct Gps {
 
 /// victoria_park_ascii/LASER.txt: 7230 scans of 361 ranges in metres (81.91 = no return, kept).
 struct LaserScans {
-  std::vector<std::int64_t> time_ms;          ///< on the MATLAB clock (t_ascii*1000 + 20967)
-  std::vector<std::vector<float>> ranges;     ///< kBeams values per scan
+  std::vector<std::int64_t> time_ms;       ///< on the MATLAB clock (t_ascii*1000 + 20967)
+  std::vector<std::vector<float>> ranges;  ///< kBeams values per scan
 };
 
 /// $VP_DATA when set, else ../shared/data/victoria_park relative to the repository root.

@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -125,8 +126,9 @@ class AssociationContext {
   const LandmarkIndex& index_;
   const std::vector<Observation>& obs_;
   double stamp_;
-  mutable std::vector<Prediction> predictions_;
-  mutable std::vector<char> predicted_;
+  // Keyed by landmark index and filled on first use: a scan touches a handful of landmarks, so
+  // the cache must not cost O(map) to set up. Node-based, so returned references stay valid.
+  mutable std::unordered_map<int, Prediction> predictions_;
   mutable std::size_t evaluations_ = 0;
 };
 

@@ -1,0 +1,171 @@
+// Dynamic Joint Nearest Neighbour, DJNN (seed 000 section 3; ALGORITHMS.md section 4): NN
+// restricted to the local region around the sensor (eq. 10), interference between pairings
+// resolved with the observation compensation v_bar (eq. 6-8, cases 1-4), and an evidence counter
+// T (eq. 9) that admits features seen twice and removes landmarks missed more often than seen.
+// Parameters, defaults and the points the paper leaves open: docs/djnn.md.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ekf_slam/core/data_association.h"
+
+namespace ekf_slam {
+
+class DJNN : public DataAssociation {
+ public:
+  /// Which interference case of seed 000 section 3 the last associate() call started in.
+  enum class Case : std::uint8_t {
+    kNone = 0,            ///< no association ran (empty scan)
+    kNoInterference = 1,  ///< case 1: NN result accepted
+    kPartial = 2,         ///< case 2: p > 0 unique pairs, k interfering
+    kAllInterfere = 3,    ///< case 3: every pairing interferes (p = 0)
+    kNothingPaired = 4,   ///< case 4: no observation paired
+  };
+
+  /// Counters since configure()/reset(), for tests and diagnostics.
+  struct Stats {
+    std::uint64_t scans = 0;              ///< associate() calls with at least one observation
+    std::uint64_t cases[5] = {};          ///< indexed by Case
+    std::uint64_t case4_accepted = 0;     ///< case 4, no landmark in the valid region (eq. 7)
+    std::uint64_t case4_compensated = 0;  ///< case 4, a wide-gate pair (eq. 8) gave v_bar
+    std::uint64_t resolution_rounds = 0;  ///< interference-resolution rounds, all cases
+    std::uint64_t admitted = 0;           ///< kNew decisions
+    std::uint64_t removed = 0;            ///< landmarks returned in result.remove
+    std::uint64_t tentative_dropped = 0;
+  };
+
+  /// Parameters (names as read in configure(); defaults in docs/djnn.md).
+  struct Params {
+    double sensor_range = 30.0;   ///< R, effective sensor range [m]
+    double range_margin = 3.0;    ///< d [m]
+    double angle_margin = 0.1;    ///< dphi [rad]
+    double field_of_view = M_PI;  ///< full angle about the sensor x axis [rad]
+    double individual_probability = 0.95;
+    /// An unpaired observation within chi2(2, p) of a local landmark (plain or compensated) is
+    /// ambiguous and rejected rather than made tentative; >= individual_probability.
+    double ambiguity_probability = 0.95;
+    double wide_gate_factor = 3.0;  ///< eq. 8
+    int admit_evidence = 2;
+    int remove_evidence = 0;
+    int initial_evidence = 2;  ///< T of map landmarks DJNN has not seen yet
+    int max_evidence = 0;      ///< cap on T (0: unbounded, as in the paper)
+    double tentative_gate_probability = 0.95;
+    double tentative_timeout = 60.0;  ///< [s] of stamp; 0 disables
+    /// Where a missed feature scores r_k = -1 (eq. 9): "sensor" = range R and the field of view;
+    /// "valid" = the valid region of eq. 7 (shrunk by the margins).
+    std::string penalty_region = "sensor";
+  };
+
+  DJNN();
+
+  void configure(const ParameterSource& params) override;
+  std::string name() const override { return "DJNN"; }
+  AssociationResult associate(const AssociationContext& ctx) override;
+  void landmarkAdded(int obs, LandmarkId id) override;
+  void reset() override;
+  int evidence(LandmarkId id) const override;
+  std::vector<TentativeFeature> tentativeFeatures() const override;
+
+  const Params& params() const { return p_; }
+  Case lastCase() const { return last_case_; }
+  const Stats& stats() const { return stats_; }
+  /// v_bar (range, bearing) that decided the pairing of the last scan (zero in case 1).
+  const Eigen::Vector2d& lastCompensation() const { return last_v_bar_; }
+
+ private:
+  struct Tentative {
+    Eigen::Vector2d position;
+    Eigen::Matrix2d cov;  ///< observation-noise part only (the pose part is added at gating)
+    int evidence = 0;
+    double last_seen = 0.0;
+    bool alive = false;
+  };
+  using CellKey = std::int64_t;
+  /// An unpaired observation of this scan as a candidate feature (eq. 9).
+  struct Sighting {
+    Eigen::Vector2d pos;      ///< inverse model at the current pose
+    Eigen::Matrix2d cov_obs;  ///< G_z R G_z^T
+    int slot;                 ///< tentative feature it matched, or -1
+    bool eligible;
+  };
+  struct TentativePair {
+    double d2;
+    int obs;
+    int local;  ///< index into tent_near_
+  };
+
+  // --- association (eq. 5-8) -----------------------------------------------------------------
+  void buildCandidates(const AssociationContext& ctx);
+  const AssociationContext::Individual& pair(int obs, int cand) const {
+    return table_[static_cast<std::size_t>(obs) * cand_.size() + cand];
+  }
+  /// Normalised distance (eq. 5) of observation `obs` compensated by v_bar to candidate `cand`;
+  /// *mahalanobis receives the compensated M_ij.
+  double score(int obs, int cand, const Eigen::Vector2d& v_bar, double* mahalanobis) const;
+  /// NN of one compensated observation among untaken candidates (gate on the compensated M).
+  int nearest(int obs, const Eigen::Vector2d& v_bar, bool use_taken) const;
+  void nearestAll(const Eigen::Vector2d& v_bar);
+  /// Counts pairings per candidate; returns the number of contested candidates.
+  int countPairings();
+  Eigen::Vector2d meanInnovationOfUnique() const;
+  /// The loop shared by cases 2-4: each contested landmark keeps its closest (compensated)
+  /// observation; losers re-run NN against untaken landmarks; until clean.
+  void resolve(const Eigen::Vector2d& v_bar);
+  bool inRegion(const Eigen::Vector2d& p_sensor, double range, double margin) const;
+
+  // --- evidence (eq. 9) ----------------------------------------------------------------------
+  void updateMapEvidence(const AssociationContext& ctx, AssociationResult* result);
+  void handleUnpaired(const AssociationContext& ctx, AssociationResult* result);
+  int addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, double stamp);
+  void dropTentative(int slot);
+  void moveTentative(int slot, const Eigen::Vector2d& pos);
+  CellKey tentativeKey(const Eigen::Vector2d& p) const;
+  void queryTentatives(const Eigen::Vector2d& center, double radius, std::vector<int>* out) const;
+  int bump(int evidence, int r) const;
+
+  Params p_;
+  double gate_ = 0.0;
+  double wide_gate_ = 0.0;
+  double ambiguity_gate_ = 0.0;
+  double tentative_gate_ = 0.0;
+  double cos_half_fov_ = 0.0, sin_half_fov_ = 1.0;
+  double tentative_cell_ = 10.0;
+  double penalty_range_ = 30.0, penalty_margin_ = 0.0;
+
+  // Per-scan scratch, reused between calls to avoid heap churn.
+  Eigen::Vector3d sensor_pose_ = Eigen::Vector3d::Zero();
+  std::vector<int> near_;         ///< landmarksNear() result
+  std::vector<int> cand_;         ///< local region (eq. 10), state-order indices
+  std::vector<char> cand_valid_;  ///< in the valid region (eq. 7)
+  std::vector<AssociationContext::Individual> table_;  ///< m x |cand|
+  std::vector<int> assign_;                            ///< per observation: candidate slot or -1
+  std::vector<int> count_;                             ///< per candidate: observations assigned
+  std::vector<char> taken_;                            ///< per candidate
+  std::vector<char> gated_;  ///< per observation: passed the gate with some candidate
+  std::vector<int> winner_;  ///< per candidate: closest contesting observation
+  std::vector<double> winner_score_;
+  std::vector<int> tent_near_;
+  std::vector<char> tent_hit_;
+  std::vector<Sighting> sightings_;
+  std::vector<TentativePair> tentative_pairs_;
+
+  // State kept between scans.
+  std::unordered_map<LandmarkId, int> evidence_;
+  std::vector<Tentative> tentative_;
+  std::vector<int> free_slots_;
+  std::unordered_map<CellKey, std::vector<int>> tentative_cells_;
+  std::size_t tentative_sweep_ = 0;
+  std::vector<int> pending_new_;  ///< per observation of the last scan: T at admission, or -1
+
+  Case last_case_ = Case::kNone;
+  Eigen::Vector2d last_v_bar_ = Eigen::Vector2d::Zero();
+  Stats stats_;
+};
+
+}  // namespace ekf_slam

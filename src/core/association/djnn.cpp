@@ -1,0 +1,614 @@
+// Dynamic Joint Nearest Neighbour (seed 000 section 3). See djnn.h and docs/djnn.md.
+#include "ekf_slam/core/association/djnn.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/LU>
+
+#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/association/nn.h"
+#include "ekf_slam/core/chi2.h"
+
+namespace ekf_slam {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kMaxEvidence = 1000000;
+// Tentative slots checked per scan for the timeout, wherever they are (amortised clean-up of
+// features the robot never comes back to).
+constexpr std::size_t kSweepPerScan = 8;
+
+// v - v_bar in measurement space, bearing wrapped.
+inline Eigen::Vector2d compensate(const Eigen::Vector2d& v, const Eigen::Vector2d& v_bar) {
+  return Eigen::Vector2d(v(0) - v_bar(0), wrapAngle(v(1) - v_bar(1)));
+}
+
+inline std::int64_t cellOf(double v, double cell) {
+  const double c = std::floor(v / cell);
+  if (!(c > -1.0e9)) return -1000000000LL;
+  if (c > 1.0e9) return 1000000000LL;
+  return static_cast<std::int64_t>(c);
+}
+
+inline std::int64_t packCell(std::int64_t ix, std::int64_t iy) {
+  return static_cast<std::int64_t>((static_cast<std::uint64_t>(ix) << 32) ^
+                                   (static_cast<std::uint64_t>(iy) & 0xffffffffULL));
+}
+
+}  // namespace
+
+DJNN::DJNN() {
+  // Usable without configure() (tests, tools): the documented defaults.
+  configure(MapParameterSource());
+}
+
+void DJNN::configure(const ParameterSource& params) {
+  const ParameterReader r(params);
+  const Params def;  // the documented defaults
+  Params p;
+  p.sensor_range = r.positive("sensor_range", def.sensor_range);
+  p.range_margin = r.nonNegative("range_margin", def.range_margin);
+  if (p.range_margin >= p.sensor_range) {
+    r.fail("range_margin", "must be smaller than sensor_range (eq. 7 shrinks R by it)");
+  }
+  p.angle_margin = r.inRange("angle_margin", def.angle_margin, 0.0, M_PI / 2);
+  p.field_of_view = r.inRange("field_of_view", def.field_of_view, 0.0, 2.0 * M_PI);
+  if (!(p.field_of_view > 0.0)) r.fail("field_of_view", "must be positive");
+  p.individual_probability = r.probability("individual_probability", def.individual_probability);
+  p.ambiguity_probability = r.probability("ambiguity_probability", def.ambiguity_probability);
+  if (p.ambiguity_probability < p.individual_probability) {
+    r.fail("ambiguity_probability", "must be at least individual_probability");
+  }
+  p.wide_gate_factor = r.inRange("wide_gate_factor", def.wide_gate_factor, 1.0, 1.0e6);
+  p.admit_evidence = r.integer("admit_evidence", def.admit_evidence, 1, kMaxEvidence);
+  p.remove_evidence =
+      r.integer("remove_evidence", def.remove_evidence, -kMaxEvidence, p.admit_evidence - 1);
+  p.initial_evidence =
+      r.integer("initial_evidence", def.initial_evidence, p.remove_evidence + 1, kMaxEvidence);
+  p.max_evidence = r.integer("max_evidence", def.max_evidence, 0, kMaxEvidence);
+  if (p.max_evidence != 0 && p.max_evidence < std::max(p.admit_evidence, p.initial_evidence)) {
+    r.fail("max_evidence", "must be 0 (unbounded) or at least admit_evidence and initial_evidence");
+  }
+  p.tentative_gate_probability =
+      r.probability("tentative_gate_probability", def.tentative_gate_probability);
+  p.tentative_timeout = r.nonNegative("tentative_timeout", def.tentative_timeout);
+  p.penalty_region = r.text("penalty_region", def.penalty_region, {"sensor", "valid"});
+
+  p_ = p;
+  gate_ = chi2Quantile(p_.individual_probability, 2);
+  wide_gate_ = p_.wide_gate_factor * gate_;
+  ambiguity_gate_ = chi2Quantile(p_.ambiguity_probability, 2);
+  tentative_gate_ = chi2Quantile(p_.tentative_gate_probability, 2);
+  cos_half_fov_ = std::cos(0.5 * p_.field_of_view);
+  sin_half_fov_ = std::sin(0.5 * p_.field_of_view);
+  tentative_cell_ = 0.5 * (p_.sensor_range + p_.range_margin);
+  if (p_.penalty_region == "valid") {
+    penalty_range_ = p_.sensor_range - p_.range_margin;
+    penalty_margin_ = p_.angle_margin * p_.sensor_range;
+  } else {
+    penalty_range_ = p_.sensor_range;
+    penalty_margin_ = 0.0;
+  }
+  reset();
+}
+
+void DJNN::reset() {
+  evidence_.clear();
+  tentative_.clear();
+  free_slots_.clear();
+  tentative_cells_.clear();
+  tentative_sweep_ = 0;
+  pending_new_.clear();
+  last_case_ = Case::kNone;
+  last_v_bar_.setZero();
+  stats_ = Stats();
+}
+
+// --- regions (eq. 7, 10) -------------------------------------------------------------------------
+
+// p_sensor is the landmark in the sensor frame. Eq. 7 / 10 are written for a 180 deg sensor: the
+// half-plane x_s > margin. For a field of view 2a the wedge test generalises it: the signed
+// distance to the nearer edge ray, sin(a) x - cos(a) |y|, must exceed the margin (for a = 90 deg
+// this is exactly x_s); a full circle has no edge.
+bool DJNN::inRegion(const Eigen::Vector2d& p_sensor, double range, double margin) const {
+  if (!(p_sensor.squaredNorm() < range * range)) return false;
+  if (p_.field_of_view >= 2.0 * M_PI) return true;
+  return sin_half_fov_ * p_sensor.x() - cos_half_fov_ * std::abs(p_sensor.y()) > margin;
+}
+
+void DJNN::buildCandidates(const AssociationContext& ctx) {
+  const double R = p_.sensor_range;
+  const Eigen::Vector2d origin = sensor_pose_.head<2>();
+  const double c = std::cos(sensor_pose_(2));
+  const double s = std::sin(sensor_pose_(2));
+  // Spatial index first (O(cells + nearby)), then the exact eq. 10.
+  near_ = ctx.landmarksNear(origin, R + p_.range_margin);
+  std::sort(near_.begin(), near_.end());  // deterministic order, whatever the index returns
+  cand_.clear();
+  cand_valid_.clear();
+  const EkfSlam& ekf = ctx.ekf();
+  for (int j : near_) {
+    const Eigen::Vector2d d = ekf.landmark(j) - origin;
+    const Eigen::Vector2d ps(c * d.x() + s * d.y(), -s * d.x() + c * d.y());
+    if (!inRegion(ps, R + p_.range_margin, -p_.angle_margin * R)) continue;  // eq. 10
+    cand_.push_back(j);
+    cand_valid_.push_back(inRegion(ps, R - p_.range_margin, p_.angle_margin * R));  // eq. 7
+  }
+}
+
+// --- association -------------------------------------------------------------------------------
+
+double DJNN::score(int obs, int cand, const Eigen::Vector2d& v_bar, double* mahalanobis) const {
+  const AssociationContext::Individual& ind = pair(obs, cand);
+  const Eigen::Vector2d v = compensate(ind.v, v_bar);
+  const double m = v.dot(ind.S_inv * v);
+  *mahalanobis = m;
+  return m + ind.log_det_S;  // eq. 5
+}
+
+int DJNN::nearest(int obs, const Eigen::Vector2d& v_bar, bool use_taken) const {
+  int best = -1;
+  double best_score = kInf;
+  for (int c = 0; c < static_cast<int>(cand_.size()); ++c) {
+    if (use_taken && taken_[c]) continue;
+    double m;
+    const double sc = score(obs, c, v_bar, &m);
+    if (m <= gate_ && sc < best_score) {  // eq. 4, then eq. 5
+      best_score = sc;
+      best = c;
+    }
+  }
+  return best;
+}
+
+void DJNN::nearestAll(const Eigen::Vector2d& v_bar) {
+  for (int i = 0; i < static_cast<int>(assign_.size()); ++i) assign_[i] = nearest(i, v_bar, false);
+}
+
+int DJNN::countPairings() {
+  count_.assign(cand_.size(), 0);
+  for (int a : assign_) {
+    if (a >= 0) ++count_[a];
+  }
+  int contested = 0;
+  for (int n : count_) contested += n >= 2;
+  return contested;
+}
+
+Eigen::Vector2d DJNN::meanInnovationOfUnique() const {
+  // Eq. 6 over the pairs whose landmark no other observation claims.
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  int p = 0;
+  for (int i = 0; i < static_cast<int>(assign_.size()); ++i) {
+    const int a = assign_[i];
+    if (a < 0 || count_[a] != 1) continue;
+    sum += pair(i, a).v;
+    ++p;
+  }
+  return p > 0 ? Eigen::Vector2d(sum / p) : Eigen::Vector2d::Zero();
+}
+
+void DJNN::resolve(const Eigen::Vector2d& v_bar) {
+  const int n = static_cast<int>(cand_.size());
+  const int m = static_cast<int>(assign_.size());
+  std::vector<int>& winner = winner_;
+  std::vector<double>& winner_score = winner_score_;
+  // Every round hands each contested landmark to one observation and marks it taken; losers only
+  // go to untaken landmarks, so the taken set grows every round: at most n rounds.
+  for (int round = 0; round <= n; ++round) {
+    if (countPairings() == 0) return;
+    ++stats_.resolution_rounds;
+    winner.assign(n, -1);
+    winner_score.assign(n, kInf);
+    for (int i = 0; i < m; ++i) {
+      const int a = assign_[i];
+      if (a < 0 || count_[a] < 2) continue;
+      double mah;
+      const double sc = score(i, a, v_bar, &mah);
+      if (sc < winner_score[a]) {
+        winner_score[a] = sc;
+        winner[a] = i;
+      }
+    }
+    for (int c = 0; c < n; ++c) taken_[c] = count_[c] > 0;
+    for (int i = 0; i < m; ++i) {
+      const int a = assign_[i];
+      if (a < 0 || count_[a] < 2 || winner[a] == i) continue;
+      assign_[i] = nearest(i, v_bar, true);
+    }
+  }
+  countPairings();
+}
+
+AssociationResult DJNN::associate(const AssociationContext& ctx) {
+  const int m = static_cast<int>(ctx.numObservations());
+  AssociationResult result;
+  result.resize(m);
+  pending_new_.assign(m, -1);
+  last_v_bar_.setZero();
+  if (m == 0) {
+    // The paper calls DJNN only for non-empty scans (seed 000 section 5.2: 6949 non-empty scans,
+    // 6948 calls), so an empty scan changes no counter.
+    last_case_ = Case::kNone;
+    return result;
+  }
+  ++stats_.scans;
+  sensor_pose_ = ctx.sensorPose();
+  buildCandidates(ctx);
+  const int n = static_cast<int>(cand_.size());
+
+  // Plain NN on the local region (eq. 4-5).
+  assign_.assign(m, -1);
+  gated_.assign(m, 0);
+  for (int i = 0; i < m; ++i) {
+    const int j = nearestNeighbour(ctx, i, cand_, gate_);
+    if (j < 0) continue;
+    assign_[i] = static_cast<int>(std::lower_bound(cand_.begin(), cand_.end(), j) - cand_.begin());
+    gated_[i] = 1;
+  }
+  const int contested = countPairings();
+  int paired = 0, unique = 0;
+  for (int a : assign_) {
+    if (a < 0) continue;
+    ++paired;
+    unique += count_[a] == 1;
+  }
+
+  const bool any_valid = std::find(cand_valid_.begin(), cand_valid_.end(), 1) != cand_valid_.end();
+  bool have_table = false;
+  if (paired > 0 && contested == 0) {
+    last_case_ = Case::kNoInterference;  // case 1
+  } else if (paired == 0 && !any_valid) {
+    last_case_ = Case::kNothingPaired;  // case 4, nothing should have been seen (eq. 7): accept
+    ++stats_.case4_accepted;
+  } else {
+    // Cases 2-4 need every pair, compensated: compute them once.
+    have_table = true;
+    table_.resize(static_cast<std::size_t>(m) * n);
+    for (int i = 0; i < m; ++i) {
+      for (int c = 0; c < n; ++c) {
+        table_[static_cast<std::size_t>(i) * n + c] = ctx.individual(i, cand_[c]);
+      }
+    }
+    taken_.assign(n, 0);
+    Eigen::Vector2d v_bar = Eigen::Vector2d::Zero();
+    if (paired == 0) {
+      last_case_ = Case::kNothingPaired;  // case 4
+      // Any landmark that should have been seen (eq. 7)? Then the closest pair within the wide
+      // gate (eq. 8) measures the jump of the estimate.
+      int bi = -1, bc = -1;
+      double best = kInf;
+      for (int c = 0; c < n; ++c) {
+        if (!cand_valid_[c]) continue;
+        for (int i = 0; i < m; ++i) {
+          const double mah = pair(i, c).mahalanobis;
+          if (mah <= wide_gate_ && mah < best) {
+            best = mah;
+            bi = i;
+            bc = c;
+          }
+        }
+      }
+      if (bi < 0) {
+        ++stats_.case4_accepted;
+      } else {
+        ++stats_.case4_compensated;
+        v_bar = pair(bi, bc).v;
+        nearestAll(v_bar);
+        resolve(v_bar);
+      }
+    } else if (unique > 0) {
+      last_case_ = Case::kPartial;  // case 2
+      v_bar = meanInnovationOfUnique();
+      resolve(v_bar);
+    } else {
+      last_case_ = Case::kAllInterfere;  // case 3
+      // Each contested landmark keeps its closest observation (eq. 5, uncompensated); their mean
+      // innovation (eq. 6 over these q pairs) compensates all m observations, then NN again.
+      std::vector<int>& winner = winner_;
+      std::vector<double>& winner_score = winner_score_;
+      winner.assign(n, -1);
+      winner_score.assign(n, kInf);
+      const Eigen::Vector2d zero = Eigen::Vector2d::Zero();
+      for (int i = 0; i < m; ++i) {
+        const int a = assign_[i];
+        if (a < 0) continue;
+        double mah;
+        const double sc = score(i, a, zero, &mah);
+        if (sc < winner_score[a]) {
+          winner_score[a] = sc;
+          winner[a] = i;
+        }
+      }
+      Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+      int q = 0;
+      for (int c = 0; c < n; ++c) {
+        if (winner[c] < 0) continue;
+        sum += pair(winner[c], c).v;
+        ++q;
+      }
+      v_bar = sum / q;  // q >= 1: at least one landmark is contested
+      nearestAll(v_bar);
+      resolve(v_bar);
+    }
+    last_v_bar_ = v_bar;
+  }
+  ++stats_.cases[static_cast<int>(last_case_)];
+
+  // An observation left unpaired although it lies within the ambiguity gate (plain or
+  // compensated) of a local landmark must not seed a duplicate of that landmark: rejected.
+  if (have_table || ambiguity_gate_ > gate_) {
+    for (int i = 0; i < m; ++i) {
+      if (assign_[i] >= 0) continue;
+      gated_[i] = 0;
+      for (int c = 0; c < n && !gated_[i]; ++c) {
+        if (have_table) {
+          double mah;
+          score(i, c, last_v_bar_, &mah);
+          gated_[i] = pair(i, c).mahalanobis <= ambiguity_gate_ || mah <= ambiguity_gate_;
+        } else {
+          gated_[i] = ctx.individual(i, cand_[c]).mahalanobis <= ambiguity_gate_;
+        }
+      }
+    }
+  }
+
+  countPairings();
+  for (int i = 0; i < m; ++i) {
+    if (assign_[i] >= 0) result.pair(i, ctx.landmarkId(cand_[assign_[i]]));
+  }
+  updateMapEvidence(ctx, &result);
+  handleUnpaired(ctx, &result);
+  return result;
+}
+
+// --- evidence (eq. 9) ----------------------------------------------------------------------------
+
+int DJNN::bump(int evidence, int r) const {
+  const int t = evidence + r;
+  return p_.max_evidence > 0 ? std::min(t, p_.max_evidence) : t;
+}
+
+void DJNN::updateMapEvidence(const AssociationContext& ctx, AssociationResult* result) {
+  const EkfSlam& ekf = ctx.ekf();
+  const Eigen::Vector2d origin = sensor_pose_.head<2>();
+  const double c = std::cos(sensor_pose_(2));
+  const double s = std::sin(sensor_pose_(2));
+  // Only the local region is visited: a landmark outside it cannot be inside the sensor region,
+  // so its r_k is 0 anyway.
+  for (int k = 0; k < static_cast<int>(cand_.size()); ++k) {
+    const LandmarkId id = ctx.landmarkId(cand_[k]);
+    auto it = evidence_.try_emplace(id, p_.initial_evidence).first;
+    int r = 0;
+    if (count_[k] > 0) {
+      r = 1;
+    } else {
+      const Eigen::Vector2d d = ekf.landmark(cand_[k]) - origin;
+      const Eigen::Vector2d ps(c * d.x() + s * d.y(), -s * d.x() + c * d.y());
+      if (inRegion(ps, penalty_range_, penalty_margin_)) r = -1;
+    }
+    it->second = bump(it->second, r);
+    if (it->second <= p_.remove_evidence) {
+      result->remove.push_back(id);
+      evidence_.erase(it);
+      ++stats_.removed;
+    }
+  }
+  // Counters of landmarks removed by someone else: swept when they could dominate (amortised).
+  if (evidence_.size() > 2 * ekf.numLandmarks() + 64) {
+    for (auto it = evidence_.begin(); it != evidence_.end();) {
+      it = ekf.contains(it->first) ? std::next(it) : evidence_.erase(it);
+    }
+  }
+}
+
+DJNN::CellKey DJNN::tentativeKey(const Eigen::Vector2d& p) const {
+  return packCell(cellOf(p.x(), tentative_cell_), cellOf(p.y(), tentative_cell_));
+}
+
+void DJNN::queryTentatives(const Eigen::Vector2d& center, double radius,
+                           std::vector<int>* out) const {
+  out->clear();
+  if (tentative_cells_.empty()) return;
+  const std::int64_t x0 = cellOf(center.x() - radius, tentative_cell_);
+  const std::int64_t x1 = cellOf(center.x() + radius, tentative_cell_);
+  const std::int64_t y0 = cellOf(center.y() - radius, tentative_cell_);
+  const std::int64_t y1 = cellOf(center.y() + radius, tentative_cell_);
+  const double r2 = radius * radius;
+  for (std::int64_t ix = x0; ix <= x1; ++ix) {
+    for (std::int64_t iy = y0; iy <= y1; ++iy) {
+      auto it = tentative_cells_.find(packCell(ix, iy));
+      if (it == tentative_cells_.end()) continue;
+      for (int slot : it->second) {
+        if ((tentative_[slot].position - center).squaredNorm() < r2) out->push_back(slot);
+      }
+    }
+  }
+  std::sort(out->begin(), out->end());
+}
+
+int DJNN::addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, double stamp) {
+  int slot;
+  if (!free_slots_.empty()) {
+    slot = free_slots_.back();
+    free_slots_.pop_back();
+  } else {
+    slot = static_cast<int>(tentative_.size());
+    tentative_.emplace_back();
+  }
+  Tentative& t = tentative_[slot];
+  t.position = pos;
+  t.cov = cov;
+  t.evidence = bump(0, 1);  // seen now: r_k = +1
+  t.last_seen = stamp;
+  t.alive = true;
+  tentative_cells_[tentativeKey(pos)].push_back(slot);
+  return slot;
+}
+
+void DJNN::dropTentative(int slot) {
+  Tentative& t = tentative_[slot];
+  if (!t.alive) return;
+  auto it = tentative_cells_.find(tentativeKey(t.position));
+  if (it != tentative_cells_.end()) {
+    std::vector<int>& v = it->second;
+    auto pos = std::find(v.begin(), v.end(), slot);
+    if (pos != v.end()) {
+      *pos = v.back();
+      v.pop_back();
+    }
+    if (v.empty()) tentative_cells_.erase(it);
+  }
+  t.alive = false;
+  free_slots_.push_back(slot);
+}
+
+void DJNN::moveTentative(int slot, const Eigen::Vector2d& pos) {
+  Tentative& t = tentative_[slot];
+  const CellKey from = tentativeKey(t.position);
+  const CellKey to = tentativeKey(pos);
+  t.position = pos;
+  if (from == to) return;
+  auto it = tentative_cells_.find(from);
+  if (it != tentative_cells_.end()) {
+    std::vector<int>& v = it->second;
+    auto p = std::find(v.begin(), v.end(), slot);
+    if (p != v.end()) {
+      *p = v.back();
+      v.pop_back();
+    }
+    if (v.empty()) tentative_cells_.erase(it);
+  }
+  tentative_cells_[to].push_back(slot);
+}
+
+void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* result) {
+  const int m = static_cast<int>(ctx.numObservations());
+  const double stamp = ctx.stamp();
+  const Eigen::Vector3d pose = ctx.robotPose();
+  const Eigen::Matrix3d P_vv = ctx.ekf().poseCovariance();
+  const Eigen::Vector2d origin = sensor_pose_.head<2>();
+  const double c = std::cos(sensor_pose_(2));
+  const double s = std::sin(sensor_pose_(2));
+
+  queryTentatives(origin, p_.sensor_range + p_.range_margin, &tent_near_);
+  tent_hit_.assign(tent_near_.size(), 0);
+
+  // Observations that may be a feature not yet in the map: unpaired, not ambiguous, inside the
+  // effective range (beyond R nothing can be paired, so they would only duplicate landmarks).
+  std::vector<Sighting>& seen = sightings_;
+  seen.assign(m, Sighting{Eigen::Vector2d::Zero(), Eigen::Matrix2d::Zero(), -1, false});
+  std::vector<TentativePair>& pairs = tentative_pairs_;
+  pairs.clear();
+  for (int i = 0; i < m; ++i) {
+    const Observation& o = ctx.observations()[i];
+    if (result->decision[i] == Decision::kPaired || gated_[i]) continue;
+    if (!(o.z(0) < p_.sensor_range) || !o.z.allFinite()) continue;
+    seen[i].eligible = true;
+    Matrix23d G_pose;
+    Eigen::Matrix2d G_obs;
+    seen[i].pos = ctx.model().inverse(pose, o.z, &G_pose, &G_obs);
+    seen[i].cov_obs = G_obs * o.R * G_obs.transpose();
+    // Gate on position: observation noise of both sightings plus the current pose covariance once
+    // (an upper bound on the pose error accumulated between the sightings; using it twice would
+    // double-count the correlated part).
+    const Eigen::Matrix2d C = seen[i].cov_obs + G_pose * P_vv * G_pose.transpose();
+    for (int k = 0; k < static_cast<int>(tent_near_.size()); ++k) {
+      const Tentative& t = tentative_[tent_near_[k]];
+      const Eigen::Matrix2d S = C + t.cov;
+      const Eigen::Vector2d e = seen[i].pos - t.position;
+      const double d2 = e.dot(S.inverse() * e);
+      if (d2 <= tentative_gate_) pairs.push_back({d2, i, k});
+    }
+  }
+  // One-to-one, closest first.
+  std::sort(pairs.begin(), pairs.end(), [](const TentativePair& a, const TentativePair& b) {
+    return a.d2 < b.d2 ||
+           (a.d2 == b.d2 && (a.obs < b.obs || (a.obs == b.obs && a.local < b.local)));
+  });
+  for (const TentativePair& cnd : pairs) {
+    if (seen[cnd.obs].slot >= 0 || tent_hit_[cnd.local]) continue;
+    tent_hit_[cnd.local] = 1;
+    const int slot = tent_near_[cnd.local];
+    seen[cnd.obs].slot = slot;
+    Tentative& t = tentative_[slot];
+    // Fuse the two sightings (information-weighted on their observation noise).
+    const Eigen::Matrix2d K = t.cov * (t.cov + seen[cnd.obs].cov_obs).inverse();
+    const Eigen::Vector2d fused = t.position + K * (seen[cnd.obs].pos - t.position);
+    t.cov = (Eigen::Matrix2d::Identity() - K) * t.cov;
+    t.cov = 0.5 * (t.cov + t.cov.transpose()).eval();
+    t.evidence = bump(t.evidence, 1);
+    t.last_seen = stamp;
+    moveTentative(slot, fused);
+  }
+
+  // Tentative features in the region that were not seen this scan: r_k = -1 inside the sensor
+  // region, 0 outside (eq. 9); stale ones time out.
+  for (int k = 0; k < static_cast<int>(tent_near_.size()); ++k) {
+    if (tent_hit_[k]) continue;
+    const int slot = tent_near_[k];
+    Tentative& t = tentative_[slot];
+    const Eigen::Vector2d d = t.position - origin;
+    const Eigen::Vector2d ps(c * d.x() + s * d.y(), -s * d.x() + c * d.y());
+    if (inRegion(ps, penalty_range_, penalty_margin_)) t.evidence = bump(t.evidence, -1);
+    const bool stale = p_.tentative_timeout > 0.0 && stamp - t.last_seen > p_.tentative_timeout;
+    if (t.evidence <= p_.remove_evidence || stale) {
+      dropTentative(slot);
+      ++stats_.tentative_dropped;
+    }
+  }
+
+  // Decisions: admitted when T reaches the admission threshold (eq. 9), else tentative.
+  for (int i = 0; i < m; ++i) {
+    if (!seen[i].eligible) continue;
+    int slot = seen[i].slot;
+    if (slot < 0) slot = addTentative(seen[i].pos, seen[i].cov_obs, stamp);
+    const int t = tentative_[slot].evidence;
+    if (t >= p_.admit_evidence) {
+      result->decision[i] = Decision::kNew;
+      pending_new_[i] = t;
+      dropTentative(slot);  // now the pipeline's landmark; its counter starts in landmarkAdded()
+      ++stats_.admitted;
+    } else {
+      result->decision[i] = Decision::kTentative;
+    }
+  }
+
+  // Amortised timeout sweep over the whole tentative set (features the robot never revisits).
+  if (p_.tentative_timeout > 0.0 && !tentative_.empty()) {
+    for (std::size_t n = 0; n < kSweepPerScan && n < tentative_.size(); ++n) {
+      tentative_sweep_ = (tentative_sweep_ + 1) % tentative_.size();
+      Tentative& t = tentative_[tentative_sweep_];
+      if (t.alive && stamp - t.last_seen > p_.tentative_timeout) {
+        dropTentative(static_cast<int>(tentative_sweep_));
+        ++stats_.tentative_dropped;
+      }
+    }
+  }
+}
+
+void DJNN::landmarkAdded(int obs, LandmarkId id) {
+  int t = p_.admit_evidence;
+  if (obs >= 0 && obs < static_cast<int>(pending_new_.size()) && pending_new_[obs] >= 0) {
+    t = pending_new_[obs];
+  }
+  evidence_[id] = t;
+}
+
+int DJNN::evidence(LandmarkId id) const {
+  auto it = evidence_.find(id);
+  return it != evidence_.end() ? it->second : p_.initial_evidence;
+}
+
+std::vector<TentativeFeature> DJNN::tentativeFeatures() const {
+  std::vector<TentativeFeature> out;
+  for (const Tentative& t : tentative_) {
+    if (t.alive) out.push_back({t.position, t.evidence});
+  }
+  return out;
+}
+
+}  // namespace ekf_slam

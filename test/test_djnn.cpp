@@ -1,0 +1,601 @@
+// DJNN (seed 000 section 3): interference cases 1-4, evidence counter T (eq. 9), local region
+// (eq. 10), cost independent of the far map, and the hand-made association problems.
+#include <map>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <Eigen/Geometry>
+
+#include "association_fixtures.h"
+#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/nn.h"
+#include "ekf_slam/core/chi2.h"
+
+namespace ekf_slam {
+namespace {
+
+using assoc_test::diag2;
+using assoc_test::poseCov;
+using assoc_test::Scene;
+
+DJNN makeDjnn(const std::map<std::string, std::string>& params = {}) {
+  DJNN d;
+  d.configure(MapParameterSource(params));
+  return d;
+}
+
+Eigen::Vector2d polar(double r, double bearing_deg) {
+  return Eigen::Vector2d(r * std::cos(deg2rad(bearing_deg)), r * std::sin(deg2rad(bearing_deg)));
+}
+
+// Observation of world point p from the true pose, shifted by `bias` in measurement space.
+int observeBiased(Scene* s, const Eigen::Vector2d& p, const Eigen::Vector2d& bias, int source) {
+  const int i = s->observePoint(p, nullptr, source);
+  s->observations[i].z += bias;
+  s->observations[i].z(1) = wrapAngle(s->observations[i].z(1));
+  return i;
+}
+
+// A scene whose innovation covariance is essentially R (tiny pose and map uncertainty), so that
+// the expected Mahalanobis distances can be worked out by hand.
+Scene sharpScene(const Eigen::Matrix2d& R) {
+  Scene s;
+  s.pose_cov = poseCov(1e-3, 1e-3, 1e-5);
+  s.R = R;
+  return s;
+}
+
+void clearScan(Scene* s) {
+  s->observations.clear();
+  s->truth.clear();
+}
+
+// Plain NN over every landmark, for comparison.
+std::vector<int> plainNN(const AssociationContext& ctx) {
+  std::vector<int> all(ctx.numLandmarks());
+  for (int j = 0; j < static_cast<int>(all.size()); ++j) all[j] = j;
+  std::vector<int> out;
+  for (int i = 0; i < static_cast<int>(ctx.numObservations()); ++i) {
+    out.push_back(nearestNeighbour(ctx, i, all, chi2Quantile(0.95, 2)));
+  }
+  return out;
+}
+
+// --- interference cases -----------------------------------------------------------------------
+
+TEST(DJNN, Case1NoInterferenceAcceptsNN) {
+  Scene s;
+  for (const auto& p : {Eigen::Vector2d(10, 2), Eigen::Vector2d(12, -4), Eigen::Vector2d(20, 8),
+                        Eigen::Vector2d(6, -7)}) {
+    s.addLandmark(p);
+  }
+  s.build();
+  s.observeAll(30.0);
+  DJNN d = makeDjnn();
+  const AssociationContext ctx = s.context();
+  const AssociationResult r = d.associate(ctx);
+  EXPECT_EQ(d.lastCase(), DJNN::Case::kNoInterference);
+  EXPECT_EQ(d.stats().cases[1], 1u);
+  ASSERT_EQ(r.decision.size(), 4u);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(r.decision[i], Decision::kPaired) << i;
+    EXPECT_EQ(r.landmark[i], s.expectId(i)) << i;
+    EXPECT_EQ(d.evidence(s.expectId(i)), 3);  // unknown (2) + seen (1)
+  }
+  EXPECT_TRUE(r.remove.empty());
+  EXPECT_EQ(d.lastCompensation(), Eigen::Vector2d::Zero());
+}
+
+// Range biased by +0.8 m (sigma_r = 0.4 m: M = 4 for the true pairs). L3 (15 m) and L4 (16.2 m)
+// lie on one ray: the observation of L3 (15.8) is nearer L4 (0.4) than L3 (0.8), so plain NN
+// gives both observations to L4. Two unique pairs measure v_bar = (0.8, 0) (eq. 6); compensated,
+// L4's observation is at distance 0 and wins, and L3's observation re-pairs with L3.
+TEST(DJNN, Case2PartialInterferenceCompensatesAndReassigns) {
+  Scene s = sharpScene(diag2(0.4, deg2rad(0.5)));
+  const int l1 = s.addLandmark(polar(14, 45), diag2(1e-3, 1e-3));
+  const int l2 = s.addLandmark(polar(14, -45), diag2(1e-3, 1e-3));
+  const int l3 = s.addLandmark(polar(15, 0), diag2(1e-3, 1e-3));
+  const int l4 = s.addLandmark(polar(16.2, 0), diag2(1e-3, 1e-3));
+  s.build();
+  const Eigen::Vector2d bias(0.8, 0.0);
+  observeBiased(&s, s.true_landmarks[l1], bias, l1);
+  observeBiased(&s, s.true_landmarks[l2], bias, l2);
+  const int o3 = observeBiased(&s, s.true_landmarks[l3], bias, l3);
+  const int o4 = observeBiased(&s, s.true_landmarks[l4], bias, l4);
+
+  const AssociationContext ctx = s.context();
+  const std::vector<int> nn = plainNN(ctx);
+  EXPECT_EQ(nn[o3], l4);  // the problem is real: NN interferes
+  EXPECT_EQ(nn[o4], l4);
+
+  DJNN d = makeDjnn();
+  const AssociationResult r = d.associate(ctx);
+  EXPECT_EQ(d.lastCase(), DJNN::Case::kPartial);
+  EXPECT_EQ(d.stats().cases[2], 1u);
+  EXPECT_GE(d.stats().resolution_rounds, 1u);
+  EXPECT_NEAR(d.lastCompensation()(0), 0.8, 1e-9);
+  EXPECT_NEAR(d.lastCompensation()(1), 0.0, 1e-9);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(r.decision[i], Decision::kPaired) << i;
+    EXPECT_EQ(r.landmark[i], s.expectId(i)) << i;
+  }
+}
+
+// Every pairing interferes (p = 0). Three contested landmarks (sigma_r = 0.4, range bias 0.8):
+// X1 (15 m) / X2 (16.5 m) on one ray, both observations nearest X2, the wrong one (0.7) nearer than
+// the right one (0.8); Y1 and Z1 each contested by their observation (0.8) and a clutter return
+// 0.9 m short of them. Closest per landmark: v = -0.7, 0.8, 0.8, v_bar = 0.3. Compensated NN:
+// X1 and X2 get their own observations, the clutter leaves the gate (1.2 m: M = 9).
+TEST(DJNN, Case3AllInterfereCompensatesAll) {
+  Scene s = sharpScene(diag2(0.4, deg2rad(0.5)));
+  const auto c = diag2(1e-3, 1e-3);
+  const int x1 = s.addLandmark(polar(15, 0), c);
+  const int x2 = s.addLandmark(polar(16.5, 0), c);
+  const int y1 = s.addLandmark(polar(14, 40), c);
+  const int z1 = s.addLandmark(polar(13, -40), c);
+  s.build();
+  const Eigen::Vector2d bias(0.8, 0.0);
+  const int ox1 = observeBiased(&s, s.true_landmarks[x1], bias, x1);
+  const int ox2 = observeBiased(&s, s.true_landmarks[x2], bias, x2);
+  const int oy1 = observeBiased(&s, s.true_landmarks[y1], bias, y1);
+  const int oy2 = observeBiased(&s, s.true_landmarks[y1], Eigen::Vector2d(-0.9, 0), -1);
+  const int oz1 = observeBiased(&s, s.true_landmarks[z1], bias, z1);
+  const int oz2 = observeBiased(&s, s.true_landmarks[z1], Eigen::Vector2d(-0.9, 0), -1);
+
+  const AssociationContext ctx = s.context();
+  const std::vector<int> nn = plainNN(ctx);
+  EXPECT_EQ(nn[ox1], x2);
+  EXPECT_EQ(nn[ox2], x2);
+  EXPECT_EQ(nn[oy2], y1);
+  EXPECT_EQ(nn[oz2], z1);
+
+  DJNN d = makeDjnn();
+  const AssociationResult r = d.associate(ctx);
+  EXPECT_EQ(d.lastCase(), DJNN::Case::kAllInterfere);
+  EXPECT_EQ(d.stats().cases[3], 1u);
+  EXPECT_NEAR(d.lastCompensation()(0), 0.3, 1e-9);
+  EXPECT_NEAR(d.lastCompensation()(1), 0.0, 1e-9);
+  EXPECT_EQ(r.landmark[ox1], Scene::idOf(x1));
+  EXPECT_EQ(r.landmark[ox2], Scene::idOf(x2));
+  EXPECT_EQ(r.landmark[oy1], Scene::idOf(y1));
+  EXPECT_EQ(r.landmark[oz1], Scene::idOf(z1));
+  // The clutter passed the plain gate of a landmark it lost: ambiguous, not a new feature.
+  EXPECT_EQ(r.decision[oy2], Decision::kRejected);
+  EXPECT_EQ(r.decision[oz2], Decision::kRejected);
+  EXPECT_EQ(r.landmark[oy2], kNoLandmark);
+  EXPECT_TRUE(d.tentativeFeatures().empty());
+}
+
+// A sudden heading error of 3.5 sigma: every innovation is (0, 3.5 deg), M = 12.25 > chi2(2,
+// 0.95) = 5.99, so NN pairs nothing; within the wide gate 3 x 5.99 (eq. 8) the closest pair gives
+// v_bar = (0, 3.5 deg), after which everything pairs.
+TEST(DJNN, Case4LargePoseErrorIsRecovered) {
+  Scene s = sharpScene(diag2(0.1, deg2rad(1.0)));
+  const double delta = deg2rad(3.5);
+  s.est_pose = Eigen::Vector3d(5, -3, 0.4);
+  s.true_pose = Eigen::Vector3d(5, -3, 0.4 - delta);
+  const auto c = diag2(1e-3, 1e-3);
+  for (const auto& p :
+       {polar(10, 0), polar(12, 30), polar(11, -45), polar(19, 40), polar(18, -20)}) {
+    s.addLandmark(s.est_pose.head<2>() + Eigen::Rotation2Dd(0.4) * p, c);
+  }
+  s.build();
+  s.observeAll(30.0);
+  ASSERT_EQ(s.observations.size(), 5u);
+
+  const AssociationContext ctx = s.context();
+  for (int j : plainNN(ctx)) EXPECT_EQ(j, -1);  // NN loses the map
+
+  DJNN d = makeDjnn();
+  const AssociationResult r = d.associate(ctx);
+  EXPECT_EQ(d.lastCase(), DJNN::Case::kNothingPaired);
+  EXPECT_EQ(d.stats().case4_compensated, 1u);
+  EXPECT_EQ(d.stats().case4_accepted, 0u);
+  EXPECT_NEAR(d.lastCompensation()(0), 0.0, 1e-6);
+  EXPECT_NEAR(d.lastCompensation()(1), delta, 1e-6);
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_EQ(r.decision[i], Decision::kPaired) << i;
+    EXPECT_EQ(r.landmark[i], s.expectId(i)) << i;
+  }
+}
+
+TEST(DJNN, Case4AcceptsWhenNoLandmarkInValidRegion) {
+  Scene s;
+  s.addLandmark({-10, 0});   // behind: outside the local region
+  s.addLandmark({28.5, 0});  // local (< R + d = 33) but not valid (> R - d = 27): eq. 7
+  s.addLandmark({2, 12});    // local, but x = 2 < dphi * R = 3: not valid
+  s.build();
+  s.observePoint({10, 5});
+  DJNN d = makeDjnn();
+  const AssociationContext ctx = s.context();
+  const AssociationResult r = d.associate(ctx);
+  EXPECT_EQ(d.lastCase(), DJNN::Case::kNothingPaired);
+  EXPECT_EQ(d.stats().case4_accepted, 1u);
+  EXPECT_EQ(d.stats().case4_compensated, 0u);
+  EXPECT_EQ(r.decision[0], Decision::kTentative);
+  EXPECT_EQ(ctx.evaluations(), 2u);  // one NN pass over the two local landmarks, no table
+}
+
+TEST(DJNN, Case4WithValidLandmarkButNothingInWideGateAccepts) {
+  Scene s = sharpScene(diag2(0.1, deg2rad(1.0)));
+  s.addLandmark({10, 0}, diag2(1e-3, 1e-3));
+  s.build();
+  s.observePoint({10, 6});  // ~31 deg away: far outside the wide gate
+  DJNN d = makeDjnn();
+  const AssociationResult r = d.associate(s.context());
+  EXPECT_EQ(d.lastCase(), DJNN::Case::kNothingPaired);
+  EXPECT_EQ(d.stats().case4_accepted, 1u);
+  EXPECT_EQ(r.decision[0], Decision::kTentative);
+}
+
+// --- evidence counter (eq. 9) -----------------------------------------------------------------
+
+TEST(DJNN, FeatureSeenOnceIsTentativeSeenTwiceIsAdmitted) {
+  Scene s;
+  s.build();  // empty map
+  s.observePoint({10, 3});
+  DJNN d = makeDjnn();
+  {
+    const AssociationResult r = d.associate(s.context(0.0));
+    EXPECT_EQ(r.decision[0], Decision::kTentative);
+    ASSERT_EQ(d.tentativeFeatures().size(), 1u);
+    EXPECT_EQ(d.tentativeFeatures()[0].evidence, 1);
+    EXPECT_NEAR((d.tentativeFeatures()[0].position - Eigen::Vector2d(10, 3)).norm(), 0.0, 1e-9);
+  }
+  // Seen again, slightly elsewhere (noise): same feature, T = 2: admitted.
+  clearScan(&s);
+  s.observePoint({10.05, 2.97});
+  {
+    const AssociationResult r = d.associate(s.context(0.1));
+    EXPECT_EQ(r.decision[0], Decision::kNew);
+    EXPECT_EQ(r.landmark[0], kNoLandmark);
+    EXPECT_TRUE(d.tentativeFeatures().empty());
+    EXPECT_EQ(d.stats().admitted, 1u);
+  }
+  // The pipeline initialises it; its counter starts at the admission value.
+  const LandmarkId id = s.ekf.addLandmark(s.observations[0].z, s.observations[0].R, s.model);
+  d.landmarkAdded(0, id);
+  EXPECT_EQ(d.evidence(id), 2);
+  s.index.sync(s.ekf);
+  // Next scan it is paired like any landmark.
+  {
+    const AssociationResult r = d.associate(s.context(0.2));
+    EXPECT_EQ(r.decision[0], Decision::kPaired);
+    EXPECT_EQ(r.landmark[0], id);
+    EXPECT_EQ(d.evidence(id), 3);
+  }
+}
+
+TEST(DJNN, AdmissionThresholdIsAParameter) {
+  Scene s;
+  s.build();
+  s.observePoint({8, -2});
+  DJNN d = makeDjnn({{"admit_evidence", "3"}});
+  EXPECT_EQ(d.associate(s.context()).decision[0], Decision::kTentative);
+  EXPECT_EQ(d.associate(s.context()).decision[0], Decision::kTentative);
+  EXPECT_EQ(d.associate(s.context()).decision[0], Decision::kNew);
+}
+
+TEST(DJNN, TentativeFeatureMissedInsideTheRegionIsDropped) {
+  Scene s;
+  s.build();
+  s.observePoint({10, 3});
+  DJNN d = makeDjnn();
+  EXPECT_EQ(d.associate(s.context()).decision[0], Decision::kTentative);
+  clearScan(&s);
+  s.observePoint({12, -8});  // another feature; (10, 3) is in view and missed: T = 0
+  EXPECT_EQ(d.associate(s.context()).decision[0], Decision::kTentative);
+  ASSERT_EQ(d.tentativeFeatures().size(), 1u);
+  EXPECT_NEAR(d.tentativeFeatures()[0].position.x(), 12.0, 1e-9);
+  EXPECT_EQ(d.stats().tentative_dropped, 1u);
+  clearScan(&s);
+  s.observePoint({10, 3});   // back: a fresh tentative feature, not an admission
+  s.observePoint({12, -8});  // second sighting of this one: admitted
+  const AssociationResult r = d.associate(s.context());
+  EXPECT_EQ(r.decision[0], Decision::kTentative);
+  EXPECT_EQ(r.decision[1], Decision::kNew);
+}
+
+TEST(DJNN, TentativeMatchingUsesAPositionGate) {
+  Scene s;
+  s.pose_cov = poseCov(0.05, 0.05, deg2rad(0.2));
+  s.R = diag2(0.1, deg2rad(0.5));
+  s.build();
+  s.observePoint({10, 0});
+  DJNN d = makeDjnn();
+  d.associate(s.context());
+  clearScan(&s);
+  // 1.5 m away: far outside the gate (sigma ~ 0.15 m); a different feature. The first one is
+  // also in view and missed, so it is dropped and the new one is tentative.
+  s.observePoint({10, 1.5});
+  EXPECT_EQ(d.associate(s.context()).decision[0], Decision::kTentative);
+  EXPECT_EQ(d.tentativeFeatures().size(), 1u);
+}
+
+TEST(DJNN, LandmarkMissedMoreOftenThanSeenIsRemoved) {
+  Scene s;
+  const int a = s.addLandmark({10, 0});
+  const int b = s.addLandmark({12, 6});
+  s.build();
+  DJNN d = makeDjnn();
+  // Scan 1: both seen (T_a = 3). Scans 2-4: only b: T_a = 2, 1, 0 -> removed in scan 4.
+  s.observeLandmark(a);
+  s.observeLandmark(b);
+  AssociationResult r = d.associate(s.context());
+  EXPECT_TRUE(r.remove.empty());
+  EXPECT_EQ(d.evidence(Scene::idOf(a)), 3);
+  clearScan(&s);
+  s.observeLandmark(b);
+  for (int scan = 2; scan <= 3; ++scan) {
+    r = d.associate(s.context());
+    EXPECT_TRUE(r.remove.empty()) << scan;
+  }
+  EXPECT_EQ(d.evidence(Scene::idOf(a)), 1);
+  r = d.associate(s.context());
+  ASSERT_EQ(r.remove.size(), 1u);
+  EXPECT_EQ(r.remove[0], Scene::idOf(a));
+  EXPECT_EQ(d.evidence(Scene::idOf(b)), 2 + 4);
+  EXPECT_EQ(d.stats().removed, 1u);
+}
+
+TEST(DJNN, LandmarkOutsideTheSensorRegionIsNotPenalised) {
+  // Ten scans seeing only `front`; removals are applied to the map as the pipeline would.
+  auto run = [](DJNN* d, std::vector<LandmarkId>* removed) {
+    Scene s;
+    const int front = s.addLandmark({10, 0});
+    s.addLandmark({-10, 0});   // behind
+    s.addLandmark({31, 0});    // local region (< 33) but beyond R = 30
+    s.addLandmark({-1, 15});   // local region (x > -3) but outside the field of view
+    s.addLandmark({500, 0});   // far away
+    s.addLandmark({28.5, 1});  // in range R and the field of view, not in eq. 7's valid region
+    s.build();
+    s.observeLandmark(front);
+    for (int scan = 0; scan < 10; ++scan) {
+      const AssociationResult r = d->associate(s.context());
+      for (LandmarkId id : r.remove) {
+        removed->push_back(id);
+        s.ekf.removeLandmark(id);
+      }
+      s.index.sync(s.ekf);
+    }
+  };
+  DJNN sensor = makeDjnn();
+  DJNN valid = makeDjnn({{"penalty_region", "valid"}});
+  std::vector<LandmarkId> removed_sensor, removed_valid;
+  run(&sensor, &removed_sensor);
+  run(&valid, &removed_valid);
+  for (const DJNN* d : {&sensor, &valid}) {
+    EXPECT_EQ(d->evidence(Scene::idOf(0)), 12);
+    for (int j = 1; j <= 4; ++j) EXPECT_EQ(d->evidence(Scene::idOf(j)), 2) << j;
+  }
+  // The border landmark is inside range R and the field of view: with the default region it is
+  // missed twice (2 -> 0) and removed; eq. 7's region does not count it.
+  EXPECT_EQ(removed_sensor, std::vector<LandmarkId>({Scene::idOf(5)}));
+  EXPECT_TRUE(removed_valid.empty());
+  EXPECT_EQ(valid.evidence(Scene::idOf(5)), 2);
+}
+
+TEST(DJNN, UnknownLandmarksStartWithConfiguredEvidence) {
+  Scene s;
+  const int a = s.addLandmark({10, 0});
+  const int b = s.addLandmark({12, 6});
+  s.build();
+  s.observeLandmark(b);
+  DJNN d = makeDjnn({{"initial_evidence", "1"}});
+  const AssociationResult r = d.associate(s.context());
+  ASSERT_EQ(r.remove.size(), 1u);  // 1 - 1 = 0 on the first miss
+  EXPECT_EQ(r.remove[0], Scene::idOf(a));
+  EXPECT_EQ(d.evidence(Scene::idOf(b)), 2);
+}
+
+// --- local region (eq. 10) and cost -----------------------------------------------------------
+
+TEST(DJNN, LocalRegionExcludesLandmarksBehindAndBeyondRange) {
+  Scene s;
+  const int front = s.addLandmark({10, 0});
+  const int behind = s.addLandmark({-10, 0});
+  s.addLandmark({40, 0});     // beyond R + d = 33
+  s.addLandmark({-2.5, 10});  // x > -dphi R = -3: inside
+  s.addLandmark({-3.5, 10});  // outside
+  s.addLandmark({32.5, 0});   // inside
+  s.addLandmark({33.5, 0});   // outside
+  s.build();
+  s.observeLandmark(front);
+  s.observeLandmark(behind);  // a return from behind cannot be paired with a landmark there
+  DJNN d = makeDjnn();
+  const AssociationContext ctx = s.context();
+  const AssociationResult r = d.associate(ctx);
+  EXPECT_EQ(d.lastCase(), DJNN::Case::kNoInterference);
+  EXPECT_EQ(ctx.evaluations(), 2u * 3u);  // 2 observations x 3 local landmarks
+  EXPECT_EQ(r.landmark[0], Scene::idOf(front));
+  EXPECT_EQ(r.decision[1], Decision::kTentative);
+}
+
+TEST(DJNN, CostDoesNotGrowWithFarLandmarks) {
+  auto run = [](int far_count, std::vector<AssociationResult>* results) {
+    Scene s;
+    for (int k = 0; k < 12; ++k) s.addLandmark(polar(6.0 + 1.7 * k, -80.0 + 14.0 * k));
+    // The far map: a ring of landmarks 200-400 m away, outside any local region.
+    for (int k = 0; k < far_count; ++k) {
+      const double r = 200.0 + 200.0 * (k % 97) / 97.0;
+      s.addLandmark(polar(r, 360.0 * k / far_count), diag2(0.3, 0.3));
+    }
+    s.build();
+    std::mt19937 rng(3);
+    for (int k = 0; k < 12; ++k) s.observeLandmark(k, &rng);
+    s.observePoint({14, 14});  // clutter
+    // Interference too: a second return next to landmark 3 (table path).
+    s.observePoint(s.true_landmarks[3] + Eigen::Vector2d(0.05, 0.0));
+    DJNN d = makeDjnn();
+    std::size_t evaluations = 0;
+    for (int scan = 0; scan < 3; ++scan) {
+      const AssociationContext ctx = s.context();
+      AssociationResult res = d.associate(ctx);
+      res.remove.clear();
+      results->push_back(res);
+      evaluations += ctx.evaluations();
+    }
+    return evaluations;
+  };
+  std::vector<AssociationResult> small, large;
+  const std::size_t e_small = run(100, &small);
+  const std::size_t e_large = run(2000, &large);  // dense EKF: 2000 is ~130 MB of covariance
+  EXPECT_GT(e_small, 0u);
+  EXPECT_EQ(e_small, e_large);
+  ASSERT_EQ(small.size(), large.size());
+  for (std::size_t k = 0; k < small.size(); ++k) {
+    EXPECT_EQ(small[k].decision, large[k].decision);
+    EXPECT_EQ(small[k].landmark, large[k].landmark);
+  }
+}
+
+// --- hand-made problems -----------------------------------------------------------------------
+
+TEST(DJNN, TwoObservationsCompeteForOneLandmark) {
+  Scene s;
+  const int l = s.addLandmark({10, 0});
+  s.build();
+  const int good = s.observeLandmark(l);
+  const int other = s.observePoint({10.15, 0.0});
+  DJNN d = makeDjnn();
+  const AssociationResult r = d.associate(s.context());
+  EXPECT_EQ(d.lastCase(), DJNN::Case::kAllInterfere);
+  EXPECT_EQ(r.landmark[good], Scene::idOf(l));
+  EXPECT_EQ(r.decision[other], Decision::kRejected);  // ambiguous: not a new feature either
+}
+
+TEST(DJNN, ObservationBetweenTwoLandmarksTakesTheNearer) {
+  Scene s;
+  const int l1 = s.addLandmark({10, 1}, diag2(0.6, 0.6));
+  s.addLandmark({10, -1}, diag2(0.6, 0.6));
+  s.build();
+  s.observePoint({10, 0.3});
+  DJNN d = makeDjnn();
+  const AssociationResult r = d.associate(s.context());
+  EXPECT_EQ(d.lastCase(), DJNN::Case::kNoInterference);
+  EXPECT_EQ(r.landmark[0], Scene::idOf(l1));
+}
+
+TEST(DJNN, ClutterBecomesTentative) {
+  Scene s;
+  s.addLandmark({10, 2});
+  s.addLandmark({15, -5});
+  s.addLandmark({7, 7});
+  s.build();
+  std::mt19937 rng(11);
+  s.observeAll(30.0, &rng);
+  const int c1 = s.observePoint({20, 10});
+  const int c2 = s.observePoint({4, -9});
+  DJNN d = makeDjnn();
+  const AssociationResult r = d.associate(s.context());
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(r.landmark[i], s.expectId(i));
+  EXPECT_EQ(r.decision[c1], Decision::kTentative);
+  EXPECT_EQ(r.decision[c2], Decision::kTentative);
+  EXPECT_EQ(d.tentativeFeatures().size(), 2u);
+}
+
+TEST(DJNN, EmptyMap) {
+  Scene s;
+  s.build();
+  s.observePoint({10, 0});
+  s.observePoint({5, 5});
+  s.observePoint({40, 0});  // beyond the effective range R: not a feature
+  DJNN d = makeDjnn();
+  const AssociationResult r = d.associate(s.context());
+  EXPECT_EQ(d.lastCase(), DJNN::Case::kNothingPaired);
+  EXPECT_EQ(r.decision[0], Decision::kTentative);
+  EXPECT_EQ(r.decision[1], Decision::kTentative);
+  EXPECT_EQ(r.decision[2], Decision::kRejected);
+  EXPECT_TRUE(r.remove.empty());
+}
+
+TEST(DJNN, EmptyScanChangesNothing) {
+  Scene s;
+  const int a = s.addLandmark({10, 0});
+  s.build();
+  DJNN d = makeDjnn({{"initial_evidence", "1"}});
+  for (int k = 0; k < 3; ++k) {
+    const AssociationResult r = d.associate(s.context());
+    EXPECT_TRUE(r.decision.empty());
+    EXPECT_TRUE(r.remove.empty());  // not penalised: T = 1 would reach 0
+  }
+  EXPECT_EQ(d.lastCase(), DJNN::Case::kNone);
+  EXPECT_EQ(d.stats().scans, 0u);
+  EXPECT_EQ(d.evidence(Scene::idOf(a)), 1);
+}
+
+TEST(DJNN, LandmarksBehindWithBearingWrap) {
+  // An omnidirectional sensor (field_of_view = 2 pi); the robot's heading is 1.5 deg off, which
+  // moves the return of a landmark at 179 deg across the wrap to -179.5 deg.
+  Scene s;
+  s.pose_cov = poseCov(0.05, 0.05, deg2rad(1.0));
+  s.R = diag2(0.1, deg2rad(1.0));
+  s.true_pose = Eigen::Vector3d(0, 0, -deg2rad(1.5));
+  const int l1 = s.addLandmark(polar(10, 179));
+  const int l2 = s.addLandmark(polar(12, -170));
+  const int l3 = s.addLandmark(polar(9, 170));
+  s.build();
+  s.observeAll(30.0);
+  ASSERT_LT(s.observations[0].z(1), -M_PI + 0.05);  // really wrapped
+  DJNN omni = makeDjnn({{"field_of_view", std::to_string(2 * M_PI)}});
+  const AssociationResult r = omni.associate(s.context());
+  EXPECT_EQ(omni.lastCase(), DJNN::Case::kNoInterference);
+  EXPECT_EQ(r.landmark[0], Scene::idOf(l1));
+  EXPECT_EQ(r.landmark[1], Scene::idOf(l2));
+  EXPECT_EQ(r.landmark[2], Scene::idOf(l3));
+  // With the default 180 deg sensor these landmarks are behind: not even evaluated.
+  DJNN front = makeDjnn();
+  const AssociationContext ctx = s.context();
+  front.associate(ctx);
+  EXPECT_EQ(ctx.evaluations(), 0u);
+}
+
+// --- parameters -------------------------------------------------------------------------------
+
+TEST(DJNN, ParametersAreValidatedAndNamed) {
+  auto fails = [](const std::map<std::string, std::string>& p, const std::string& name) {
+    try {
+      makeDjnn(p);
+    } catch (const ParameterError& e) {
+      return std::string(e.what()).find(name) != std::string::npos;
+    }
+    return false;
+  };
+  EXPECT_TRUE(fails({{"range_margin", "30"}}, "range_margin"));
+  EXPECT_TRUE(fails({{"sensor_range", "-1"}}, "sensor_range"));
+  EXPECT_TRUE(fails({{"individual_probability", "1.5"}}, "individual_probability"));
+  EXPECT_TRUE(fails({{"remove_evidence", "2"}}, "remove_evidence"));
+  EXPECT_TRUE(fails({{"initial_evidence", "0"}}, "initial_evidence"));
+  EXPECT_TRUE(fails({{"penalty_region", "everywhere"}}, "penalty_region"));
+  EXPECT_TRUE(fails({{"wide_gate_factor", "0.5"}}, "wide_gate_factor"));
+  EXPECT_TRUE(fails({{"ambiguity_probability", "0.9"}}, "ambiguity_probability"));
+  EXPECT_TRUE(fails({{"field_of_view", "0"}}, "field_of_view"));
+  const DJNN d = makeDjnn({{"sensor_range", "25"}, {"range_margin", "2"}});
+  EXPECT_EQ(d.params().sensor_range, 25.0);
+  EXPECT_EQ(d.params().range_margin, 2.0);
+  EXPECT_EQ(d.params().admit_evidence, 2);
+  EXPECT_NEAR(d.params().field_of_view, M_PI, 1e-12);
+}
+
+TEST(DJNN, ResetForgetsState) {
+  Scene s;
+  s.build();
+  s.observePoint({10, 3});
+  DJNN d = makeDjnn();
+  d.associate(s.context());
+  EXPECT_EQ(d.tentativeFeatures().size(), 1u);
+  d.reset();
+  EXPECT_TRUE(d.tentativeFeatures().empty());
+  EXPECT_EQ(d.stats().scans, 0u);
+  EXPECT_EQ(d.associate(s.context()).decision[0], Decision::kTentative);  // not admitted
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

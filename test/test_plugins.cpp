@@ -1,0 +1,167 @@
+// Every associator loads through pluginlib by name (needs the devel space's environment, which
+// ctest provides; no master), a misspelt name lists the available ones, bad parameters from YAML
+// name the parameter. RosParameterSource is tested under rostest (test_ros_parameter_source).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/ros/associator_loader.h"
+#include "ekf_slam/tools/association_problem.h"
+#include "ekf_slam/tools/yaml_parameter_source.h"
+
+namespace ekf_slam {
+namespace {
+
+const std::vector<std::string> kNames = {"ekf_slam/DJNN", "ekf_slam/Hungarian", "ekf_slam/JCBB",
+                                         "ekf_slam/NN", "ekf_slam/NNJCBB"};
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+TEST(AssociatorLoader, DeclaresEveryAssociator) {
+  AssociatorLoader loader;
+  EXPECT_EQ(loader.available(), kNames);
+}
+
+TEST(AssociatorLoader, EveryPluginLoadsAndAssociatesATinyProblem) {
+  const auto problem = readAssociationProblem(EKF_SLAM_TEST_DATA "/clear.json");
+  AssociatorLoader loader;
+  for (const auto& name : kNames) {
+    SCOPED_TRACE(name);
+    const auto assoc = loader.create(name, MapParameterSource());
+    ASSERT_TRUE(assoc);
+    EXPECT_EQ("ekf_slam/" + assoc->name(), name);
+    const auto replay = replayAssociation(problem, *assoc);
+    // Observation 1 is clutter; the others see landmarks 1, 2 and 0.
+    EXPECT_EQ(replay.landmark, (std::vector<int>{1, -1, 2, 0}));
+  }
+}
+
+TEST(AssociatorLoader, BareAlgorithmNameGetsThePackagePrefix) {
+  AssociatorLoader loader;
+  const auto assoc = loader.create("NNJCBB", MapParameterSource());
+  EXPECT_EQ(assoc->name(), "NNJCBB");
+  EXPECT_EQ(AssociatorLoader::lookupName("DJNN"), "ekf_slam/DJNN");
+  EXPECT_EQ(AssociatorLoader::lookupName("other_pkg/X"), "other_pkg/X");
+}
+
+TEST(AssociatorLoader, MisspeltNameListsTheAvailableOnes) {
+  AssociatorLoader loader;
+  try {
+    loader.create("ekf_slam/DJN", MapParameterSource());
+    FAIL() << "ekf_slam/DJN was created";
+  } catch (const UnknownAssociatorError& e) {
+    const std::string what = e.what();
+    EXPECT_TRUE(contains(what, "'ekf_slam/DJN'")) << what;
+    for (const auto& name : kNames) EXPECT_TRUE(contains(what, name)) << what;
+  }
+}
+
+TEST(AssociatorLoader, ConfiguresFromTheParameterSource) {
+  AssociatorLoader loader;
+  const auto src = YamlParameterSource::fromString(
+      "individual_probability: 0.9\nDJNN:\n  sensor_range: 42.0\n  admit_evidence: 3\n", "DJNN");
+  const auto assoc = loader.create("ekf_slam/DJNN", src);
+  // The plugin is the same class as the core's DJNN (one ekf_slam_core shared by both).
+  const auto* djnn = dynamic_cast<const DJNN*>(assoc.get());
+  ASSERT_NE(djnn, nullptr);
+  EXPECT_DOUBLE_EQ(djnn->params().sensor_range, 42.0);
+  EXPECT_EQ(djnn->params().admit_evidence, 3);
+  EXPECT_DOUBLE_EQ(djnn->params().individual_probability, 0.9);
+}
+
+TEST(AssociatorLoader, BadYamlValueNamesTheParameter) {
+  AssociatorLoader loader;
+  const auto out_of_range =
+      YamlParameterSource::fromString("JCBB:\n  joint_probability: 1.5\n", "JCBB", "p.yaml");
+  try {
+    loader.create("ekf_slam/JCBB", out_of_range);
+    FAIL() << "joint_probability = 1.5 accepted";
+  } catch (const ParameterError& e) {
+    EXPECT_TRUE(contains(e.what(), "p.yaml:JCBB/joint_probability")) << e.what();
+  }
+  const auto wrong_type =
+      YamlParameterSource::fromString("individual_probability: high\n", "NN", "p.yaml");
+  try {
+    loader.create("ekf_slam/NN", wrong_type);
+    FAIL() << "individual_probability = high accepted";
+  } catch (const ParameterError& e) {
+    EXPECT_TRUE(contains(e.what(), "p.yaml:individual_probability")) << e.what();
+  }
+}
+
+TEST(AssociatorLoader, InstanceOutlivesTheLoader) {
+  std::shared_ptr<DataAssociation> assoc;
+  {
+    AssociatorLoader loader;
+    assoc = loader.create("ekf_slam/JCBB", MapParameterSource());
+  }
+  // The library must still be loaded: the vtable and code live in it.
+  const auto problem = readAssociationProblem(EKF_SLAM_TEST_DATA "/clear.json");
+  EXPECT_EQ(replayAssociation(problem, *assoc).landmark, (std::vector<int>{1, -1, 2, 0}));
+  EXPECT_EQ(assoc->name(), "JCBB");
+  assoc.reset();
+}
+
+// --- YamlParameterSource -------------------------------------------------------------------------
+
+TEST(YamlParameterSource, SectionOverridesTopLevel) {
+  const auto src = YamlParameterSource::fromString(
+      "a: 1.5\nb: 2\nflag: true\nname: valid\nDJNN:\n  b: 7\nJCBB:\n  a: 9\n", "DJNN", "f.yaml");
+  double a = 0, b = 0;
+  int bi = 0;
+  bool flag = false;
+  std::string name;
+  ASSERT_TRUE(src.get("a", &a));
+  EXPECT_DOUBLE_EQ(a, 1.5);  // JCBB's section is not read
+  ASSERT_TRUE(src.get("b", &b));
+  EXPECT_DOUBLE_EQ(b, 7.0);
+  ASSERT_TRUE(src.get("b", &bi));
+  EXPECT_EQ(bi, 7);
+  ASSERT_TRUE(src.get("flag", &flag));
+  EXPECT_TRUE(flag);
+  ASSERT_TRUE(src.get("name", &name));
+  EXPECT_EQ(name, "valid");
+  EXPECT_FALSE(src.get("missing", &a));
+  EXPECT_EQ(src.qualify("a"), "f.yaml:a");
+  EXPECT_EQ(src.qualify("b"), "f.yaml:DJNN/b");
+}
+
+TEST(YamlParameterSource, WrongTypesThrowParameterError) {
+  const auto src = YamlParameterSource::fromString("x: 2.5\ns: abc\nl: [1, 2]\nn:\n", "", "f.yaml");
+  int i = 0;
+  double d = 0;
+  bool b = false;
+  EXPECT_THROW(src.get("x", &i), ParameterError);
+  EXPECT_THROW(src.get("s", &d), ParameterError);
+  EXPECT_THROW(src.get("s", &b), ParameterError);
+  try {
+    src.get("l", &d);
+    FAIL();
+  } catch (const ParameterError& e) {
+    EXPECT_TRUE(contains(e.what(), "f.yaml:l")) << e.what();
+    EXPECT_TRUE(contains(e.what(), "list")) << e.what();
+  }
+  EXPECT_THROW(src.get("n", &d), ParameterError);
+}
+
+TEST(YamlParameterSource, BadFilesAreReported) {
+  EXPECT_THROW(YamlParameterSource::fromFile("/nonexistent/params.yaml"), std::runtime_error);
+  EXPECT_THROW(YamlParameterSource::fromString("- 1\n- 2\n"), std::runtime_error);
+  EXPECT_THROW(YamlParameterSource::fromString("DJNN: 3\n", "DJNN"), std::runtime_error);
+  EXPECT_THROW(YamlParameterSource::fromString("a: [1\n"), std::runtime_error);
+  double d = 0;
+  EXPECT_FALSE(YamlParameterSource::fromString("").get("a", &d));
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

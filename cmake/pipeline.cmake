@@ -1,0 +1,17 @@
+# SLAM pipeline (ROS-free core): pipeline, input sequencer, pipeline config (issue 4).
+target_sources(ekf_slam_core PRIVATE
+  ${PROJECT_SOURCE_DIR}/src/core/slam_pipeline.cpp
+  ${PROJECT_SOURCE_DIR}/src/core/input_sequencer.cpp
+  ${PROJECT_SOURCE_DIR}/src/core/pipeline_config.cpp)
+
+# Synthetic timing of a Victoria-Park-sized run (prints numbers, asserts nothing about time).
+add_executable(bench_pipeline ${PROJECT_SOURCE_DIR}/bench/bench_pipeline.cpp)
+target_link_libraries(bench_pipeline ekf_slam_core)
+
+if(CATKIN_ENABLE_TESTING)
+  foreach(t test_slam_pipeline test_input_sequencer test_pipeline_config)
+    catkin_add_gtest(${t} ${PROJECT_SOURCE_DIR}/test/${t}.cpp)
+    target_include_directories(${t} PRIVATE ${PROJECT_SOURCE_DIR}/test)
+    target_link_libraries(${t} ekf_slam_core)
+  endforeach()
+endif()

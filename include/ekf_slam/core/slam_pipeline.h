@@ -1,0 +1,226 @@
+// The whole SLAM data flow, ROS-free, driven the same way by the node and the offline runner:
+//   odometry -> predict;  scan -> extract trees -> observations -> associate -> update /
+//   initialise / remove.
+// Inputs must arrive in stamp order (InputSequencer puts them in order); the pipeline predicts to
+// the exact stamp of each scan before using it.
+//
+// Prediction is lazy: the motion steps of the odometry messages between two scans are composed
+// into one MotionStep (F = F2 F1, Q = F2 Q1 F2^T + Q2, exact) and applied to the EKF once, right
+// before the scan is associated. Per-message work is O(1) and allocation-free; the O(n) EKF
+// prediction runs once per scan. pose() / poseCovariance() include the pending motion; ekf()
+// applies it first (so it is always current).
+//
+// Time handling (docs/parameters.md, "Input ordering"):
+//  - twist mode: the twist of message k holds over [t_k, t_k+1] (zero-order hold, as
+//    victoria_park_to_bag integrates its /odom poses). Before the first odometry message the
+//    vehicle is assumed still.
+//  - pose_delta mode: the increment between consecutive odometry poses drives PoseDeltaModel. A
+//    scan between two messages is reached by extrapolating the last odometry pose with that
+//    message's twist (exact arc); the next increment then starts from the extrapolated pose, so
+//    the increments still add up to the odometry's own.
+//  - non-finite odometry: rejected and counted. Odometry older than the filter time (late, or a
+//    backwards jump): skipped and counted (its interval is already predicted).
+//  - a scan older than the filter time (late): processed at the filter's current time, counted,
+//    flagged in ScanReport::late.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/ekf_slam.h"
+#include "ekf_slam/core/landmark_index.h"
+#include "ekf_slam/core/motion_models.h"
+#include "ekf_slam/core/observation_model.h"
+#include "ekf_slam/core/tree_extractor.h"
+
+namespace ekf_slam {
+
+/// Every setting of the pipeline. The ROS side fills it from parameters (one place), the offline
+/// runner from the same YAML; defaults here are the documented defaults.
+struct PipelineConfig {
+  /// Which part of nav_msgs/Odometry drives the prediction: "twist" (v, w held until the next
+  /// message) or "pose_delta" (increments between consecutive odometry poses).
+  std::string odometry_mode = "twist";
+  TwistParams twist;
+  PoseDeltaParams pose_delta;
+
+  double sigma_range = 0.5;                   ///< default observation noise [m]
+  double sigma_bearing = 1.0 * M_PI / 180.0;  ///< [rad]
+  double max_observation_range = 30.0;        ///< trees farther away are not used [m]
+  double min_observation_range = 1.0;         ///< nor closer ones [m]
+  TreeExtractorParams extractor;
+
+  Eigen::Vector3d initial_pose = Eigen::Vector3d::Zero();        ///< map frame
+  Eigen::Vector3d initial_pose_sigma = Eigen::Vector3d::Zero();  ///< std devs (x, y, yaw)
+  double index_cell_size = 10.0;                                 ///< spatial index grid [m]
+  /// Odometry gaps longer than this are predicted across but reported (warning) [s].
+  double max_odometry_gap = 1.0;
+
+  /// InputSequencer: items older than (newest stamp - max_latency) are released without waiting
+  /// for odometry [s]; a stamp older than the newest by more than time_jump_threshold is a jump
+  /// back in time (the shells reset) [s].
+  double max_latency = 0.5;
+  double time_jump_threshold = 1.0;
+
+  /// Throws ParameterError naming the first invalid setting.
+  void validate() const;
+};
+
+/// One odometry message.
+struct OdometryInput {
+  double stamp = 0.0;
+  Eigen::Vector2d twist = Eigen::Vector2d::Zero();  ///< (v, w) of base_link
+  Eigen::Vector3d pose = Eigen::Vector3d::Zero();   ///< (x, y, yaw) in the odometry frame
+};
+
+/// Per-landmark bookkeeping next to the EKF.
+struct LandmarkInfo {
+  double diameter = std::numeric_limits<double>::quiet_NaN();  ///< running mean descriptor
+  std::uint32_t times_observed = 0;                            ///< scans it was paired in
+  int descriptor_count = 0;
+};
+
+/// What happened in one scan.
+struct ScanReport {
+  bool late = false;             ///< stamp was older than the filter: used time()
+  int invalid_observations = 0;  ///< non-finite observations dropped
+  int invalid_decisions = 0;     ///< associator output fixed up (treated as rejected)
+  double stamp = 0.0;
+  std::uint32_t scan = 0;                 ///< 0-based count of processed scans
+  std::vector<Observation> observations;  ///< after extraction and range filtering
+  AssociationResult association;          ///< kNew entries carry the new landmark's id
+  std::vector<LandmarkId> removed;        ///< landmarks removed after this scan
+  double extraction_s = 0.0;              ///< wall times
+  double association_s = 0.0;
+  double update_s = 0.0;
+  double nis = 0.0;  ///< of the batch update
+  int nis_dof = 0;
+  bool update_ok = true;  ///< false when the EKF rejected the update
+};
+
+/// Counters of inputs that needed handling (reported by the shells as warnings).
+struct PipelineCounters {
+  std::uint64_t odometry = 0;
+  std::uint64_t scans = 0;
+  std::uint64_t odometry_gaps = 0;           ///< gaps longer than max_odometry_gap
+  std::uint64_t rejected_odometry = 0;       ///< non-finite values
+  std::uint64_t rejected_updates = 0;        ///< EKF refused the batch update
+  std::uint64_t invalid_ranges = 0;          ///< NaN / negative beams seen by the extractor
+  std::uint64_t scans_before_odometry = 0;   ///< processed with no odometry yet (no prediction)
+  std::uint64_t late_odometry = 0;           ///< older than the filter time: skipped
+  std::uint64_t late_scans = 0;              ///< older than the filter time: used at time()
+  std::uint64_t empty_scans = 0;             ///< no beams, no valid beam or a bad angle
+  std::uint64_t invalid_observations = 0;    ///< non-finite observations dropped
+  std::uint64_t invalid_associations = 0;    ///< associator results fixed up (bad size, bad id)
+  std::uint64_t failed_initialisations = 0;  ///< kNew the EKF could not initialise
+  std::uint64_t invalid_stamps = 0;          ///< scans with a non-finite stamp (used at time())
+  std::uint64_t resets = 0;                  ///< reset() calls
+};
+
+class SlamPipeline {
+ public:
+  /// Throws ParameterError on an invalid config. The associator must be configured already.
+  SlamPipeline(const PipelineConfig& config, std::shared_ptr<DataAssociation> associator);
+
+  /// Back to the initial pose with an empty map and no time; the associator is reset too.
+  /// Counters and the scan number keep counting (they describe the whole run).
+  void reset();
+
+  /// Sensor pose on base_link (x, y, yaw), e.g. from tf. Used from the next scan on.
+  void setSensorOffset(const Eigen::Vector3d& offset);
+  const Eigen::Vector3d& sensorOffset() const { return model_.sensorOffset(); }
+
+  /// Odometry, in stamp order. Returns false (and counts it) for a non-finite message or one
+  /// older than time() (late_odometry). O(1), no allocation.
+  bool addOdometry(const OdometryInput& odom);
+
+  /// A laser scan: beam i at angle_min + i * angle_increment. Predicts to `stamp`, extracts the
+  /// trees, associates, updates.
+  ScanReport processScan(double stamp, const std::vector<float>& ranges, double angle_min,
+                         double angle_increment);
+  /// Observations from an external extractor or a simulator. Observations whose R is all zeros
+  /// get the configured default noise.
+  ScanReport processObservations(double stamp, std::vector<Observation> observations);
+
+  // --- state --------------------------------------------------------------------------------
+  /// The filter, with any pending odometry applied first (O(n) when some is pending).
+  const EkfSlam& ekf() const {
+    applyPendingMotion();
+    return ekf_;
+  }
+  /// Current pose estimate at time(), including odometry not yet applied to the EKF. O(1).
+  Eigen::Vector3d pose() const { return pending_steps_ > 0 ? pending_.pose : ekf_.pose(); }
+  /// Its covariance, F P_vv F^T + Q of the pending motion. O(1).
+  Eigen::Matrix3d poseCovariance() const;
+  const DataAssociation& associator() const { return *associator_; }
+  const RangeBearingModel& observationModel() const { return model_; }
+  /// Bookkeeping of a landmark (a default LandmarkInfo for an unknown id).
+  const LandmarkInfo& landmarkInfo(LandmarkId id) const;
+  const PipelineCounters& counters() const { return counters_; }
+  const PipelineConfig& config() const { return config_; }
+  /// Stamp the filter has been predicted to (NaN before any input).
+  double time() const { return time_; }
+
+  // --- map files ----------------------------------------------------------------------------
+  /// Writes the landmarks (id, x, y, covariance, diameter, times observed) as plain text: a
+  /// header line "ekf_slam_map 1", '#' comment lines, then one landmark per line
+  ///   id x y cov_xx cov_xy cov_yy diameter times_observed
+  /// (diameter "nan" when unknown). Throws std::runtime_error when the file cannot be written.
+  void saveMap(const std::string& path) const;
+  /// Replaces the map with a saved one; loaded landmarks keep their ids and covariances and are
+  /// uncorrelated with the pose and each other. The pose keeps its estimate and covariance
+  /// unless reset_pose (then: the initial pose). The associator is reset (DJNN gives the loaded
+  /// landmarks its initial_evidence). Throws std::runtime_error naming the file and line; the
+  /// state is unchanged on error.
+  void loadMap(const std::string& path, bool reset_pose);
+
+ private:
+  /// Advances the pending motion from time_ to `stamp` with the held odometry (no EKF work).
+  void advanceTo(double stamp);
+  /// Advances to `stamp` and applies the pending motion to the EKF. Handles late stamps and
+  /// scans before any input; returns the stamp actually used.
+  double predictTo(double stamp, ScanReport* report);
+  /// One motion step of the held odometry over dt, composed into pending_.
+  void composeStep(double dt);
+  void composePoseDelta(const Eigen::Vector3d& delta);
+  /// pending_ <- step o pending_ (a non-finite step is counted as rejected odometry).
+  void compose(const MotionStep& step);
+  void applyPendingMotion() const;
+  ScanReport associateAndUpdate(double stamp, std::vector<Observation> observations,
+                                ScanReport report);
+  /// Makes a result usable whatever the associator returned; returns the number of fixes.
+  int sanitise(std::size_t n, AssociationResult* result);
+
+  PipelineConfig config_;
+  std::shared_ptr<DataAssociation> associator_;
+  mutable EkfSlam ekf_;  // mutable: ekf() applies the pending motion
+  LandmarkIndex index_;
+  RangeBearingModel model_;
+  TreeExtractor extractor_;
+  TwistModel twist_model_;
+  PoseDeltaModel pose_delta_model_;
+  std::unordered_map<LandmarkId, LandmarkInfo> info_;
+  PipelineCounters counters_;
+  double time_ = std::numeric_limits<double>::quiet_NaN();
+  bool have_odometry_ = false;
+  OdometryInput last_odom_;
+  /// pose_delta mode: odometry-frame pose at time_ (last_odom_.pose extrapolated to time_).
+  Eigen::Vector3d odom_pose_at_time_ = Eigen::Vector3d::Zero();
+  std::uint32_t scans_ = 0;
+
+  // Composed motion since the last EKF prediction (pose at time_, F, Q).
+  mutable MotionStep pending_;
+  mutable int pending_steps_ = 0;
+
+  // Per-scan workspaces (kept to avoid reallocating).
+  std::vector<Pairing> pairings_;
+};
+
+}  // namespace ekf_slam

@@ -1,0 +1,159 @@
+// PipelineConfig from parameters (one place for the node and the offline runner) and its checks.
+#include "ekf_slam/core/pipeline_config.h"
+
+#include <cmath>
+#include <sstream>
+#include <string>
+
+namespace ekf_slam {
+
+namespace {
+
+// Additive noise is given as per-axis standard deviations; the models take a covariance.
+Eigen::Matrix3d diagonalCovariance(double sx, double sy, double syaw) {
+  return Eigen::Vector3d(sx * sx, sy * sy, syaw * syaw).asDiagonal();
+}
+
+double sigmaOf(const Eigen::Matrix3d& cov, int axis) { return std::sqrt(cov(axis, axis)); }
+
+void check(bool ok, const std::string& name, const std::string& what, double value) {
+  if (ok) return;
+  std::ostringstream os;
+  os << "parameter " << name << ": " << what << ", got " << value;
+  throw ParameterError(os.str());
+}
+
+void checkAdditive(const Eigen::Matrix3d& a, const std::string& prefix) {
+  const char* axis[3] = {"x", "y", "yaw"};
+  for (int i = 0; i < 3; ++i) {
+    check(std::isfinite(a(i, i)) && a(i, i) >= 0.0, prefix + "_additive_sigma_" + axis[i],
+          "variance must be finite and >= 0", a(i, i));
+  }
+  check(a.allFinite() && a.isApprox(a.transpose()), prefix + "_additive_sigma_x",
+        "additive covariance must be symmetric and finite", a(0, 1));
+}
+
+}  // namespace
+
+void PipelineConfig::validate() const {
+  if (odometry_mode != "twist" && odometry_mode != "pose_delta") {
+    throw ParameterError("parameter odometry_mode: must be one of {twist, pose_delta}, got '" +
+                         odometry_mode + "'");
+  }
+  const auto nonNegative = [](double v, const std::string& name) {
+    check(std::isfinite(v) && v >= 0.0, name, "must be finite and >= 0", v);
+  };
+  const auto positive = [](double v, const std::string& name) {
+    check(std::isfinite(v) && v > 0.0, name, "must be finite and > 0", v);
+  };
+  nonNegative(twist.sigma_v, "twist_sigma_v");
+  nonNegative(twist.sigma_v_per_v, "twist_sigma_v_per_v");
+  nonNegative(twist.sigma_w, "twist_sigma_w");
+  nonNegative(twist.sigma_w_per_v, "twist_sigma_w_per_v");
+  checkAdditive(twist.additive, "twist");
+  nonNegative(pose_delta.alpha_trans_per_trans, "pose_delta_alpha_trans_per_trans");
+  nonNegative(pose_delta.alpha_trans_per_rot, "pose_delta_alpha_trans_per_rot");
+  nonNegative(pose_delta.alpha_rot_per_rot, "pose_delta_alpha_rot_per_rot");
+  nonNegative(pose_delta.alpha_rot_per_trans, "pose_delta_alpha_rot_per_trans");
+  checkAdditive(pose_delta.additive, "pose_delta");
+
+  positive(sigma_range, "sigma_range");
+  positive(sigma_bearing, "sigma_bearing");
+  nonNegative(min_observation_range, "min_observation_range");
+  positive(max_observation_range, "max_observation_range");
+  check(min_observation_range < max_observation_range, "min_observation_range",
+        "must be < max_observation_range", min_observation_range);
+
+  positive(extractor.max_range, "extractor_max_range");
+  positive(extractor.range_jump, "extractor_range_jump");
+  positive(extractor.angle_gap, "extractor_angle_gap");
+  nonNegative(extractor.occlusion_distance, "extractor_occlusion_distance");
+  check(extractor.occlusion_lookahead >= 0 && extractor.occlusion_lookahead <= 1000,
+        "extractor_occlusion_lookahead", "must lie in [0, 1000]", extractor.occlusion_lookahead);
+  nonNegative(extractor.neighbour_angle, "extractor_neighbour_angle");
+  positive(extractor.max_extent, "extractor_max_extent");
+  nonNegative(extractor.min_range, "extractor_min_range");
+  nonNegative(extractor.edge_margin, "extractor_edge_margin");
+  positive(extractor.max_range_difference_divisor, "extractor_max_range_difference_divisor");
+  nonNegative(extractor.range_resolution, "extractor_range_resolution");
+
+  const char* axis[3] = {"x", "y", "yaw"};
+  for (int i = 0; i < 3; ++i) {
+    check(std::isfinite(initial_pose(i)), std::string("initial_pose_") + axis[i], "must be finite",
+          initial_pose(i));
+    nonNegative(initial_pose_sigma(i), std::string("initial_pose_sigma_") + axis[i]);
+  }
+  positive(index_cell_size, "index_cell_size");
+  positive(max_odometry_gap, "max_odometry_gap");
+  nonNegative(max_latency, "max_latency");
+  positive(time_jump_threshold, "time_jump_threshold");
+}
+
+PipelineConfig readPipelineConfig(const ParameterSource& params) {
+  const ParameterReader r(params);
+  PipelineConfig c;  // the defaults
+  c.odometry_mode = r.text("odometry_mode", c.odometry_mode, {"twist", "pose_delta"});
+
+  TwistParams& t = c.twist;
+  t.sigma_v = r.nonNegative("twist_sigma_v", t.sigma_v);
+  t.sigma_v_per_v = r.nonNegative("twist_sigma_v_per_v", t.sigma_v_per_v);
+  t.sigma_w = r.nonNegative("twist_sigma_w", t.sigma_w);
+  t.sigma_w_per_v = r.nonNegative("twist_sigma_w_per_v", t.sigma_w_per_v);
+  t.additive =
+      diagonalCovariance(r.nonNegative("twist_additive_sigma_x", sigmaOf(t.additive, 0)),
+                         r.nonNegative("twist_additive_sigma_y", sigmaOf(t.additive, 1)),
+                         r.nonNegative("twist_additive_sigma_yaw", sigmaOf(t.additive, 2)));
+
+  PoseDeltaParams& d = c.pose_delta;
+  d.alpha_trans_per_trans =
+      r.nonNegative("pose_delta_alpha_trans_per_trans", d.alpha_trans_per_trans);
+  d.alpha_trans_per_rot = r.nonNegative("pose_delta_alpha_trans_per_rot", d.alpha_trans_per_rot);
+  d.alpha_rot_per_rot = r.nonNegative("pose_delta_alpha_rot_per_rot", d.alpha_rot_per_rot);
+  d.alpha_rot_per_trans = r.nonNegative("pose_delta_alpha_rot_per_trans", d.alpha_rot_per_trans);
+  d.additive =
+      diagonalCovariance(r.nonNegative("pose_delta_additive_sigma_x", sigmaOf(d.additive, 0)),
+                         r.nonNegative("pose_delta_additive_sigma_y", sigmaOf(d.additive, 1)),
+                         r.nonNegative("pose_delta_additive_sigma_yaw", sigmaOf(d.additive, 2)));
+
+  c.sigma_range = r.positive("sigma_range", c.sigma_range);
+  c.sigma_bearing = r.positive("sigma_bearing", c.sigma_bearing);
+  c.max_observation_range = r.positive("max_observation_range", c.max_observation_range);
+  c.min_observation_range = r.nonNegative("min_observation_range", c.min_observation_range);
+  if (!(c.min_observation_range < c.max_observation_range)) {
+    r.fail("min_observation_range",
+           "must be < max_observation_range (" + std::to_string(c.max_observation_range) + ")");
+  }
+
+  TreeExtractorParams& e = c.extractor;
+  e.max_range = r.positive("extractor_max_range", e.max_range);
+  e.range_jump = r.positive("extractor_range_jump", e.range_jump);
+  e.angle_gap = r.positive("extractor_angle_gap", e.angle_gap);
+  e.occlusion_distance = r.nonNegative("extractor_occlusion_distance", e.occlusion_distance);
+  e.occlusion_lookahead =
+      r.integer("extractor_occlusion_lookahead", e.occlusion_lookahead, 0, 1000);
+  e.neighbour_angle = r.nonNegative("extractor_neighbour_angle", e.neighbour_angle);
+  e.max_extent = r.positive("extractor_max_extent", e.max_extent);
+  e.min_range = r.nonNegative("extractor_min_range", e.min_range);
+  e.edge_margin = r.nonNegative("extractor_edge_margin", e.edge_margin);
+  e.max_range_difference_divisor =
+      r.positive("extractor_max_range_difference_divisor", e.max_range_difference_divisor);
+  e.range_resolution = r.nonNegative("extractor_range_resolution", e.range_resolution);
+
+  c.initial_pose =
+      Eigen::Vector3d(r.number("initial_pose_x", c.initial_pose.x()),
+                      r.number("initial_pose_y", c.initial_pose.y()),
+                      r.inRange("initial_pose_yaw", c.initial_pose.z(), -4.0 * M_PI, 4.0 * M_PI));
+  c.initial_pose_sigma =
+      Eigen::Vector3d(r.nonNegative("initial_pose_sigma_x", c.initial_pose_sigma.x()),
+                      r.nonNegative("initial_pose_sigma_y", c.initial_pose_sigma.y()),
+                      r.nonNegative("initial_pose_sigma_yaw", c.initial_pose_sigma.z()));
+  c.index_cell_size = r.positive("index_cell_size", c.index_cell_size);
+  c.max_odometry_gap = r.positive("max_odometry_gap", c.max_odometry_gap);
+  c.max_latency = r.nonNegative("max_latency", c.max_latency);
+  c.time_jump_threshold = r.positive("time_jump_threshold", c.time_jump_threshold);
+
+  c.validate();  // cross-field checks; the names are the parameter names
+  return c;
+}
+
+}  // namespace ekf_slam

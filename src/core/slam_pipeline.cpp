@@ -1,0 +1,492 @@
+// The SLAM data flow: odometry -> (composed) prediction; scan -> trees -> observations ->
+// association -> EKF update / initialisation / removal. See slam_pipeline.h.
+#include "ekf_slam/core/slam_pipeline.h"
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/LU>
+
+#include "ekf_slam/core/parameters.h"
+
+namespace ekf_slam {
+
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+bool finite(const MotionStep& s) {
+  return s.pose.allFinite() && s.F.allFinite() && s.Q.allFinite();
+}
+
+constexpr const char* kMapHeader = "ekf_slam_map 1";
+
+}  // namespace
+
+SlamPipeline::SlamPipeline(const PipelineConfig& config,
+                           std::shared_ptr<DataAssociation> associator)
+    : config_(config),
+      associator_(std::move(associator)),
+      index_(config.index_cell_size),
+      extractor_(config.extractor),
+      twist_model_(config.twist),
+      pose_delta_model_(config.pose_delta) {
+  config_.validate();
+  if (!associator_) throw std::invalid_argument("SlamPipeline: no associator given");
+  reset();
+  counters_.resets = 0;
+}
+
+void SlamPipeline::reset() {
+  const Eigen::Vector3d s = config_.initial_pose_sigma;
+  ekf_.reset(config_.initial_pose, s.cwiseProduct(s).asDiagonal());
+  index_.clear();
+  index_.sync(ekf_);
+  info_.clear();
+  associator_->reset();
+  time_ = std::numeric_limits<double>::quiet_NaN();
+  have_odometry_ = false;
+  last_odom_ = OdometryInput();
+  odom_pose_at_time_.setZero();
+  pending_steps_ = 0;
+  ++counters_.resets;
+}
+
+void SlamPipeline::setSensorOffset(const Eigen::Vector3d& offset) {
+  model_.setSensorOffset(offset);
+}
+
+// --- prediction ----------------------------------------------------------------------------------
+
+Eigen::Matrix3d SlamPipeline::poseCovariance() const {
+  if (pending_steps_ == 0) return ekf_.poseCovariance();
+  const Eigen::Matrix3d Pvv = ekf_.poseCovariance();
+  Eigen::Matrix3d P = pending_.F * Pvv * pending_.F.transpose() + pending_.Q;
+  return 0.5 * (P + P.transpose());
+}
+
+void SlamPipeline::applyPendingMotion() const {
+  if (pending_steps_ == 0) return;
+  // Steps are checked when composed, so this cannot fail.
+  ekf_.predict(pending_);
+  pending_steps_ = 0;
+}
+
+void SlamPipeline::compose(const MotionStep& s) {
+  if (!finite(s)) {
+    ++counters_.rejected_odometry;
+    return;
+  }
+  if (pending_steps_ == 0) {
+    pending_ = s;
+  } else {
+    // P' = F2 (F1 P F1^T + Q1) F2^T + Q2 = (F2 F1) P (F2 F1)^T + (F2 Q1 F2^T + Q2): exact, and
+    // the pose-map block F2 F1 P_vm likewise.
+    pending_.pose = s.pose;
+    pending_.Q = s.F * pending_.Q * s.F.transpose() + s.Q;
+    pending_.F = s.F * pending_.F;
+  }
+  ++pending_steps_;
+}
+
+void SlamPipeline::composeStep(double dt) {
+  compose(twist_model_.step(pose(), last_odom_.twist, dt));
+}
+
+void SlamPipeline::composePoseDelta(const Eigen::Vector3d& delta) {
+  compose(pose_delta_model_.step(pose(), delta));
+}
+
+void SlamPipeline::advanceTo(double stamp) {
+  if (std::isfinite(time_) && have_odometry_) {
+    const double dt = stamp - time_;
+    if (dt > 0.0) {
+      if (config_.odometry_mode == "pose_delta") {
+        // Where the odometry would be at `stamp`: its last pose moved on with its twist.
+        const Eigen::Vector3d extrapolated =
+            twist_model_.predict(odom_pose_at_time_, last_odom_.twist, dt);
+        composePoseDelta(PoseDeltaModel::between(odom_pose_at_time_, extrapolated));
+        odom_pose_at_time_ = extrapolated;
+      } else {
+        composeStep(dt);
+      }
+    }
+  }
+  // Before the first odometry message the vehicle is taken to be still.
+  time_ = stamp;
+}
+
+bool SlamPipeline::addOdometry(const OdometryInput& odom) {
+  const bool pose_delta = config_.odometry_mode == "pose_delta";
+  if (!std::isfinite(odom.stamp) || !odom.twist.allFinite() ||
+      (pose_delta && !odom.pose.allFinite())) {
+    ++counters_.rejected_odometry;
+    return false;
+  }
+  if (std::isfinite(time_) && odom.stamp < time_) {
+    ++counters_.late_odometry;
+    return false;
+  }
+  ++counters_.odometry;
+  if (have_odometry_) {
+    if (odom.stamp - last_odom_.stamp > config_.max_odometry_gap) ++counters_.odometry_gaps;
+    if (pose_delta) {
+      composePoseDelta(PoseDeltaModel::between(odom_pose_at_time_, odom.pose));
+      time_ = odom.stamp;
+    } else {
+      advanceTo(odom.stamp);  // the previous twist holds up to this message
+    }
+  } else {
+    time_ = odom.stamp;
+    have_odometry_ = true;
+  }
+  last_odom_ = odom;
+  odom_pose_at_time_ = odom.pose;
+  return true;
+}
+
+double SlamPipeline::predictTo(double stamp, ScanReport* report) {
+  if (!std::isfinite(stamp)) {
+    ++counters_.invalid_stamps;
+    report->late = true;
+    stamp = std::isfinite(time_) ? time_ : 0.0;
+  } else if (std::isfinite(time_) && stamp < time_) {
+    ++counters_.late_scans;
+    report->late = true;
+    stamp = time_;
+  }
+  if (!have_odometry_) ++counters_.scans_before_odometry;
+  advanceTo(stamp);
+  applyPendingMotion();
+  return stamp;
+}
+
+// --- scans ---------------------------------------------------------------------------------------
+
+ScanReport SlamPipeline::processScan(double stamp, const std::vector<float>& ranges,
+                                     double angle_min, double angle_increment) {
+  ScanReport report;
+  report.stamp = predictTo(stamp, &report);
+
+  const auto t0 = std::chrono::steady_clock::now();
+  int invalid = 0;
+  for (const float r : ranges) {
+    // +inf is a valid "no return" (REP 117); NaN and negative values are not.
+    if (std::isnan(r) || r < 0.0f) ++invalid;
+  }
+  counters_.invalid_ranges += invalid;
+  const bool usable = !ranges.empty() && invalid < static_cast<int>(ranges.size()) &&
+                      std::isfinite(angle_min) && std::isfinite(angle_increment) &&
+                      angle_increment != 0.0;
+  std::vector<Observation> observations;
+  if (usable) {
+    const Eigen::Matrix2d R = Eigen::Vector2d(config_.sigma_range * config_.sigma_range,
+                                              config_.sigma_bearing * config_.sigma_bearing)
+                                  .asDiagonal();
+    for (const DetectedTree& t : extractor_.extract(ranges, angle_min, angle_increment)) {
+      if (!(t.range >= config_.min_observation_range && t.range <= config_.max_observation_range))
+        continue;
+      Observation o;
+      o.z = Eigen::Vector2d(t.range, t.bearing);
+      o.R = R;
+      o.descriptor = t.diameter;
+      observations.push_back(o);
+    }
+  }
+  report.extraction_s = secondsSince(t0);
+  if (!usable) {
+    // No beams (or no valid beam, or no geometry): a sensor fault, not "nothing seen", so the
+    // associator is not told (DJNN would count every landmark in view as missed).
+    ++counters_.empty_scans;
+    ++counters_.scans;
+    report.scan = scans_++;
+    return report;
+  }
+  return associateAndUpdate(report.stamp, std::move(observations), std::move(report));
+}
+
+ScanReport SlamPipeline::processObservations(double stamp, std::vector<Observation> observations) {
+  ScanReport report;
+  report.stamp = predictTo(stamp, &report);
+  const Eigen::Matrix2d R_default = Eigen::Vector2d(config_.sigma_range * config_.sigma_range,
+                                                    config_.sigma_bearing * config_.sigma_bearing)
+                                        .asDiagonal();
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < observations.size(); ++i) {
+    Observation o = observations[i];
+    if (o.R.isZero(0.0)) o.R = R_default;
+    const bool ok = o.z.allFinite() && o.z(0) >= 0.0 && o.R.allFinite() && o.R(0, 0) > 0.0 &&
+                    o.R(1, 1) > 0.0 && o.R.determinant() > 0.0 && !std::isinf(o.descriptor);
+    if (!ok) {
+      ++report.invalid_observations;
+      continue;
+    }
+    observations[kept++] = o;
+  }
+  observations.resize(kept);
+  counters_.invalid_observations += report.invalid_observations;
+  return associateAndUpdate(report.stamp, std::move(observations), std::move(report));
+}
+
+int SlamPipeline::sanitise(std::size_t n, AssociationResult* r) {
+  int fixes = 0;
+  if (r->decision.size() != n || r->landmark.size() != n) {
+    r->resize(n);  // unusable: everything rejected, nothing removed
+    return static_cast<int>(n) + 1;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    switch (r->decision[i]) {
+      case Decision::kPaired:
+        if (!ekf_.contains(r->landmark[i])) {
+          r->decision[i] = Decision::kRejected;
+          r->landmark[i] = kNoLandmark;
+          ++fixes;
+        }
+        break;
+      case Decision::kNew:
+      case Decision::kTentative:
+      case Decision::kRejected:
+        r->landmark[i] = kNoLandmark;
+        break;
+      default:  // not a Decision at all
+        r->decision[i] = Decision::kRejected;
+        r->landmark[i] = kNoLandmark;
+        ++fixes;
+    }
+  }
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < r->remove.size(); ++k) {
+    const LandmarkId id = r->remove[k];
+    bool duplicate = false;
+    for (std::size_t j = 0; j < kept; ++j) duplicate = duplicate || r->remove[j] == id;
+    if (!ekf_.contains(id) || duplicate) {
+      ++fixes;
+      continue;
+    }
+    r->remove[kept++] = id;
+  }
+  r->remove.resize(kept);
+  return fixes;
+}
+
+ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observation> observations,
+                                            ScanReport report) {
+  report.observations = std::move(observations);
+  report.scan = scans_++;
+  ++counters_.scans;
+  const std::vector<Observation>& obs = report.observations;
+  const std::size_t n = obs.size();
+
+  // Association, on the predicted state.
+  index_.sync(ekf_);
+  auto t0 = std::chrono::steady_clock::now();
+  {
+    const AssociationContext context(ekf_, model_, index_, obs, stamp);
+    report.association = associator_->associate(context);
+  }
+  report.association_s = secondsSince(t0);
+  AssociationResult& result = report.association;
+  report.invalid_decisions = sanitise(n, &result);
+  if (report.invalid_decisions > 0) ++counters_.invalid_associations;
+
+  t0 = std::chrono::steady_clock::now();
+  // 1. One batch update with every paired observation (the original measurements).
+  pairings_.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (result.decision[i] == Decision::kPaired)
+      pairings_.push_back(Pairing{result.landmark[i], obs[i].z, obs[i].R});
+  }
+  report.nis_dof = 2 * static_cast<int>(pairings_.size());
+  report.update_ok = ekf_.update(pairings_, model_, &report.nis);
+  if (!report.update_ok) {
+    ++counters_.rejected_updates;
+    report.nis = 0.0;
+  } else {
+    for (std::size_t i = 0; i < n; ++i) {
+      if (result.decision[i] != Decision::kPaired) continue;
+      LandmarkInfo& info = info_[result.landmark[i]];
+      ++info.times_observed;
+      if (std::isfinite(obs[i].descriptor)) {
+        ++info.descriptor_count;
+        info.diameter =
+            info.descriptor_count == 1
+                ? obs[i].descriptor
+                : info.diameter + (obs[i].descriptor - info.diameter) / info.descriptor_count;
+      }
+    }
+  }
+
+  // 2. New landmarks, from the updated pose.
+  for (std::size_t i = 0; i < n; ++i) {
+    if (result.decision[i] != Decision::kNew) continue;
+    const LandmarkId id = ekf_.addLandmark(obs[i].z, obs[i].R, model_);
+    if (id == kNoLandmark) {
+      ++counters_.failed_initialisations;
+      result.decision[i] = Decision::kRejected;
+      continue;
+    }
+    associator_->landmarkAdded(static_cast<int>(i), id);
+    result.landmark[i] = id;
+    LandmarkInfo& info = info_[id];
+    info.times_observed = 1;
+    if (std::isfinite(obs[i].descriptor)) {
+      info.diameter = obs[i].descriptor;
+      info.descriptor_count = 1;
+    }
+  }
+
+  // 3. Removals.
+  for (const LandmarkId id : result.remove) {
+    if (ekf_.removeLandmark(id)) {
+      report.removed.push_back(id);
+      info_.erase(id);
+    }
+  }
+  index_.sync(ekf_);
+  report.update_s = secondsSince(t0);
+  return report;
+}
+
+const LandmarkInfo& SlamPipeline::landmarkInfo(LandmarkId id) const {
+  static const LandmarkInfo kUnknown;
+  const auto it = info_.find(id);
+  return it == info_.end() ? kUnknown : it->second;
+}
+
+// --- map files -----------------------------------------------------------------------------------
+
+void SlamPipeline::saveMap(const std::string& path) const {
+  const EkfSlam& ekf = this->ekf();
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("map file '" + path + "': cannot open for writing");
+  out << kMapHeader << "\n"
+      << "# " << ekf.numLandmarks() << " landmarks; map frame, metres\n"
+      << "# id x y cov_xx cov_xy cov_yy diameter times_observed\n";
+  char line[512];
+  for (std::size_t k = 0; k < ekf.numLandmarks(); ++k) {
+    const LandmarkId id = ekf.landmarkIds()[k];
+    const Eigen::Vector2d m = ekf.landmark(static_cast<int>(k));
+    const Eigen::Matrix2d C = ekf.landmarkCovariance(static_cast<int>(k));
+    const LandmarkInfo& info = landmarkInfo(id);
+    // %.17g: doubles round-trip exactly.
+    std::snprintf(line, sizeof(line), "%lld %.17g %.17g %.17g %.17g %.17g %.17g %u\n",
+                  static_cast<long long>(id), m.x(), m.y(), C(0, 0), C(0, 1), C(1, 1),
+                  info.diameter, info.times_observed);
+    out << line;
+  }
+  out.flush();
+  if (!out) throw std::runtime_error("map file '" + path + "': write failed");
+}
+
+namespace {
+
+struct MapEntry {
+  LandmarkId id;
+  Eigen::Vector2d position;
+  Eigen::Matrix2d cov;
+  LandmarkInfo info;
+};
+
+bool parseDouble(const std::string& token, double* v) {
+  char* end = nullptr;
+  *v = std::strtod(token.c_str(), &end);
+  return !token.empty() && *end == '\0';
+}
+
+bool parseInteger(const std::string& token, long long* v) {
+  char* end = nullptr;
+  errno = 0;
+  *v = std::strtoll(token.c_str(), &end, 10);
+  return !token.empty() && *end == '\0' && errno == 0;
+}
+
+std::vector<MapEntry> readMapFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("map file '" + path + "': cannot open");
+  const auto fail = [&path](int line, const std::string& what) {
+    throw std::runtime_error("map file '" + path + "' line " + std::to_string(line) + ": " + what);
+  };
+  std::vector<MapEntry> entries;
+  std::map<LandmarkId, int> line_of;
+  std::string text;
+  int line = 0;
+  while (std::getline(in, text)) {
+    ++line;
+    if (!text.empty() && text.back() == '\r') text.pop_back();
+    if (line == 1) {
+      if (text != kMapHeader)
+        fail(1, "expected the header '" + std::string(kMapHeader) + "', got '" + text + "'");
+      continue;
+    }
+    std::istringstream fields(text);
+    std::vector<std::string> tok;
+    for (std::string t; fields >> t;) tok.push_back(t);
+    if (tok.empty() || tok[0][0] == '#') continue;
+    if (tok.size() != 8) {
+      fail(line, "expected 8 fields (id x y cov_xx cov_xy cov_yy diameter times_observed), got " +
+                     std::to_string(tok.size()));
+    }
+    MapEntry e;
+    long long id = 0, times = 0;
+    if (!parseInteger(tok[0], &id) || id < 0) fail(line, "bad id '" + tok[0] + "'");
+    e.id = id;
+    double v[6];
+    const char* names[6] = {"x", "y", "cov_xx", "cov_xy", "cov_yy", "diameter"};
+    for (int k = 0; k < 6; ++k) {
+      if (!parseDouble(tok[1 + k], &v[k]) || (k < 5 && !std::isfinite(v[k])))
+        fail(line, std::string("bad ") + names[k] + " '" + tok[1 + k] + "'");
+    }
+    if (!parseInteger(tok[7], &times) || times < 0 || times > 0xffffffffLL)
+      fail(line, "bad times_observed '" + tok[7] + "'");
+    e.position = Eigen::Vector2d(v[0], v[1]);
+    e.cov << v[2], v[3], v[3], v[4];
+    if (!(v[2] > 0.0 && v[4] > 0.0 && v[2] * v[4] - v[3] * v[3] > 0.0))
+      fail(line, "covariance is not positive definite");
+    if (std::isinf(v[5]) || v[5] < 0.0) fail(line, "bad diameter '" + tok[6] + "'");
+    e.info.diameter = v[5];
+    e.info.descriptor_count = std::isnan(v[5]) ? 0 : 1;
+    e.info.times_observed = static_cast<std::uint32_t>(times);
+    const auto seen = line_of.emplace(e.id, line);
+    if (!seen.second) {
+      fail(line, "duplicate id " + std::to_string(e.id) + " (first on line " +
+                     std::to_string(seen.first->second) + ")");
+    }
+    entries.push_back(e);
+  }
+  if (line == 0) fail(1, "empty file (expected the header '" + std::string(kMapHeader) + "')");
+  return entries;
+}
+
+}  // namespace
+
+void SlamPipeline::loadMap(const std::string& path, bool reset_pose) {
+  const std::vector<MapEntry> entries = readMapFile(path);  // throws before any change
+  applyPendingMotion();
+  Eigen::Vector3d pose = ekf_.pose();
+  Eigen::Matrix3d pose_cov = ekf_.poseCovariance();
+  if (reset_pose) {
+    const Eigen::Vector3d s = config_.initial_pose_sigma;
+    pose = config_.initial_pose;
+    pose_cov = s.cwiseProduct(s).asDiagonal();
+  }
+  ekf_.reset(pose, pose_cov);
+  info_.clear();
+  for (const MapEntry& e : entries) {
+    ekf_.insertLandmark(e.position, e.cov, e.id);
+    info_[e.id] = e.info;
+  }
+  index_.clear();
+  index_.sync(ekf_);
+  associator_->reset();
+}
+
+}  // namespace ekf_slam

@@ -1,0 +1,118 @@
+// readPipelineConfig: defaults, every name read, bad values name the parameter.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "ekf_slam/core/pipeline_config.h"
+
+namespace ekf_slam {
+namespace {
+
+TEST(PipelineConfig, DefaultsWhenNothingIsSet) {
+  const PipelineConfig c = readPipelineConfig(MapParameterSource());
+  const PipelineConfig d;
+  EXPECT_EQ(c.odometry_mode, "twist");
+  EXPECT_DOUBLE_EQ(c.sigma_range, d.sigma_range);
+  EXPECT_DOUBLE_EQ(c.sigma_bearing, d.sigma_bearing);
+  EXPECT_DOUBLE_EQ(c.max_observation_range, d.max_observation_range);
+  EXPECT_DOUBLE_EQ(c.twist.sigma_v, d.twist.sigma_v);
+  EXPECT_DOUBLE_EQ(c.extractor.range_jump, d.extractor.range_jump);
+  EXPECT_DOUBLE_EQ(c.index_cell_size, d.index_cell_size);
+  EXPECT_DOUBLE_EQ(c.max_latency, d.max_latency);
+  EXPECT_TRUE(c.initial_pose.isZero());
+  EXPECT_TRUE(c.twist.additive.isZero());
+}
+
+TEST(PipelineConfig, ReadsEveryName) {
+  MapParameterSource p;
+  p.set("odometry_mode", "pose_delta");
+  p.set("sigma_range", "0.3");
+  p.set("sigma_bearing", "0.02");
+  p.set("max_observation_range", "25");
+  p.set("min_observation_range", "2");
+  p.set("twist_sigma_v", "0.2");
+  p.set("twist_sigma_w_per_v", "0.03");
+  p.set("twist_additive_sigma_yaw", "0.1");
+  p.set("pose_delta_alpha_rot_per_trans", "0.02");
+  p.set("pose_delta_additive_sigma_x", "0.5");
+  p.set("extractor_max_range", "60");
+  p.set("extractor_occlusion_lookahead", "4");
+  p.set("extractor_range_resolution", "0");
+  p.set("initial_pose_x", "1.5");
+  p.set("initial_pose_y", "-2");
+  p.set("initial_pose_yaw", "0.7");
+  p.set("initial_pose_sigma_yaw", "0.05");
+  p.set("index_cell_size", "15");
+  p.set("max_odometry_gap", "2");
+  p.set("max_latency", "0.25");
+  p.set("time_jump_threshold", "3");
+  const PipelineConfig c = readPipelineConfig(p);
+  EXPECT_EQ(c.odometry_mode, "pose_delta");
+  EXPECT_DOUBLE_EQ(c.sigma_range, 0.3);
+  EXPECT_DOUBLE_EQ(c.sigma_bearing, 0.02);
+  EXPECT_DOUBLE_EQ(c.max_observation_range, 25.0);
+  EXPECT_DOUBLE_EQ(c.min_observation_range, 2.0);
+  EXPECT_DOUBLE_EQ(c.twist.sigma_v, 0.2);
+  EXPECT_DOUBLE_EQ(c.twist.sigma_w_per_v, 0.03);
+  EXPECT_DOUBLE_EQ(c.twist.additive(2, 2), 0.01);
+  EXPECT_DOUBLE_EQ(c.pose_delta.alpha_rot_per_trans, 0.02);
+  EXPECT_DOUBLE_EQ(c.pose_delta.additive(0, 0), 0.25);
+  EXPECT_DOUBLE_EQ(c.extractor.max_range, 60.0);
+  EXPECT_EQ(c.extractor.occlusion_lookahead, 4);
+  EXPECT_DOUBLE_EQ(c.extractor.range_resolution, 0.0);
+  EXPECT_TRUE(c.initial_pose.isApprox(Eigen::Vector3d(1.5, -2.0, 0.7)));
+  EXPECT_DOUBLE_EQ(c.initial_pose_sigma.z(), 0.05);
+  EXPECT_DOUBLE_EQ(c.index_cell_size, 15.0);
+  EXPECT_DOUBLE_EQ(c.max_odometry_gap, 2.0);
+  EXPECT_DOUBLE_EQ(c.max_latency, 0.25);
+  EXPECT_DOUBLE_EQ(c.time_jump_threshold, 3.0);
+}
+
+// The error names the parameter (qualified by the source).
+void expectError(const std::string& name, const std::string& value) {
+  MapParameterSource p({}, "/ekf_slam/");
+  p.set(name, value);
+  try {
+    readPipelineConfig(p);
+    ADD_FAILURE() << name << " = " << value << " was accepted";
+  } catch (const ParameterError& e) {
+    EXPECT_NE(std::string(e.what()).find("/ekf_slam/" + name), std::string::npos) << e.what();
+  }
+}
+
+TEST(PipelineConfig, BadValuesNameTheParameter) {
+  expectError("odometry_mode", "ackermann");
+  expectError("sigma_range", "0");
+  expectError("sigma_bearing", "-1");
+  expectError("sigma_range", "abc");
+  expectError("twist_sigma_v", "-0.1");
+  expectError("pose_delta_alpha_trans_per_rot", "nan");
+  expectError("extractor_occlusion_lookahead", "1.5");
+  expectError("min_observation_range", "40");  // >= max_observation_range
+  expectError("index_cell_size", "0");
+  expectError("initial_pose_x", "inf");
+  expectError("max_latency", "-0.5");
+  expectError("time_jump_threshold", "0");
+}
+
+TEST(PipelineConfig, ValidateNamesTheField) {
+  PipelineConfig c;
+  c.sigma_bearing = 0.0;
+  try {
+    c.validate();
+    ADD_FAILURE() << "accepted";
+  } catch (const ParameterError& e) {
+    EXPECT_NE(std::string(e.what()).find("sigma_bearing"), std::string::npos) << e.what();
+  }
+  c = PipelineConfig();
+  c.odometry_mode = "wheels";
+  EXPECT_THROW(c.validate(), ParameterError);
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

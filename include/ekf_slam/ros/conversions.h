@@ -1,0 +1,47 @@
+// Small bridges between ROS messages and the ROS-free pipeline types, shared by the node and the
+// offline runner so both feed the pipeline identically.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <geometry_msgs/Pose.h>
+#include <geometry_msgs/Transform.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/time.h>
+#include <sensor_msgs/LaserScan.h>
+
+#include "ekf_slam/AssociationStats.h"
+#include "ekf_slam/LandmarkArray.h"
+#include "ekf_slam/LandmarkObservationArray.h"
+#include "ekf_slam/core/slam_pipeline.h"
+
+namespace ekf_slam {
+
+/// Planar (x, y, yaw) of a 3D pose / transform (yaw from the quaternion).
+Eigen::Vector3d toPose2(const geometry_msgs::Pose& pose);
+Eigen::Vector3d toPose2(const geometry_msgs::Transform& transform);
+geometry_msgs::Pose toPoseMsg(const Eigen::Vector3d& pose);
+
+/// nav_msgs/Odometry -> twist (v, w) and planar pose, stamped with header.stamp.
+OdometryInput toOdometryInput(const nav_msgs::Odometry& msg);
+
+/// LandmarkObservationArray -> observations (R from the message's covariance, zeros when unset)
+/// and the truth ids (-1 for observations without one; kept aside for scoring only).
+std::vector<Observation> toObservations(const LandmarkObservationArray& msg,
+                                        std::vector<std::int64_t>* truth_ids = nullptr);
+
+/// Observation -> message entry.
+LandmarkObservation toObservationMsg(const Observation& obs);
+
+/// The map (id, mean, covariance, diameter, evidence, times observed).
+LandmarkArray toLandmarkArray(const SlamPipeline& pipeline, const std::string& frame_id,
+                              const ros::Time& stamp);
+
+/// One scan's association report.
+AssociationStats toAssociationStats(const ScanReport& report, const std::string& associator,
+                                    std::size_t landmarks, const std::string& frame_id,
+                                    const ros::Time& stamp);
+
+}  // namespace ekf_slam

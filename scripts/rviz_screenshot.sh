@@ -1,0 +1,64 @@
+#!/usr/bin/env bash
+# Headless rviz screenshot of ekf_slam on Victoria Park: converts the data set into a bag, plays
+# it fast through launch/victoria_park.launch under Xvfb and grabs the screen with ImageMagick.
+# Not part of the test suite (about two minutes). Needs the optional packages:
+#   EKF_SLAM_WITH_RVIZ=1 scripts/install_deps.sh
+# Usage: scripts/rviz_screenshot.sh [BUILD_DIR] [OUT.png]
+#   env RATE (playback rate, default 25), END (last data second, default: the whole run),
+#   ASSOCIATOR (default ekf_slam/DJNN), GPS_X / GPS_Y / GPS_YAW (see the launch file),
+#   VERBOSE=1 (print the launch log). The log, with the node's exit summary, is kept in
+#   /tmp/ekf_slam_rviz_screenshot.log.
+set -eo pipefail
+
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+BUILD=${1:-$ROOT/build}
+OUT=${2:-$ROOT/docs/images/rviz_victoria_park.png}
+RATE=${RATE:-25}
+ASSOCIATOR=${ASSOCIATOR:-ekf_slam/DJNN}
+PORT=${PORT:-11731}
+DISPLAY_NUM=${DISPLAY_NUM:-97}
+
+export PATH=/usr/bin:$PATH ROS_HOSTNAME=localhost  # Debian's python3 has rospy
+# shellcheck disable=SC1091
+source "$BUILD/devel/setup.bash"
+export ROS_MASTER_URI=http://localhost:$PORT DISPLAY=:$DISPLAY_NUM
+for tool in Xvfb rviz import; do
+  command -v $tool > /dev/null || { echo "missing $tool: EKF_SLAM_WITH_RVIZ=1 scripts/install_deps.sh" >&2; exit 1; }
+done
+
+TMP=$(mktemp -d /tmp/ekf_slam_rviz.XXXXXX)
+PIDS=()
+cleanup() {
+  for pid in "${PIDS[@]}"; do kill -INT "$pid" 2> /dev/null || true; done
+  sleep 2
+  for pid in "${PIDS[@]}"; do kill -KILL "$pid" 2> /dev/null || true; done
+  # The node's warnings and its exit summary (scans received / processed / skipped).
+  cp "$TMP/launch.log" /tmp/ekf_slam_rviz_screenshot.log 2> /dev/null || true
+  rm -rf "$TMP"
+}
+trap cleanup EXIT
+
+BAG=$TMP/vp.bag
+"$BUILD/devel/lib/ekf_slam/victoria_park_to_bag" --out "$BAG" ${END:+--end "$END"} | tail -1
+# Data seconds in the bag, for the wait below.
+SPAN=$(rosbag info -y -k duration "$BAG")
+
+Xvfb :$DISPLAY_NUM -screen 0 1280x720x24 +extension GLX +render -noreset > "$TMP/xvfb.log" 2>&1 &
+PIDS+=($!)
+sleep 2
+roslaunch -p "$PORT" ekf_slam victoria_park.launch bag:="$BAG" rate:="$RATE" \
+  associator:="$ASSOCIATOR" ${GPS_X:+gps_x:=$GPS_X} ${GPS_Y:+gps_y:=$GPS_Y} ${GPS_YAW:+gps_yaw:=$GPS_YAW} \
+  > "$TMP/launch.log" 2>&1 &
+PIDS+=($!)
+
+# Startup (rviz takes a while under llvmpipe), the -d 2 delay, the playback, then a few seconds
+# for the last markers to render.
+WAIT=$(python3 -c "print(int(15 + $SPAN / $RATE + 6))")
+echo "playing ${SPAN%.*} s of data at ${RATE}x: waiting ${WAIT} s"
+sleep "$WAIT"
+[[ -n "$VERBOSE" ]] && tail -40 "$TMP/launch.log"
+mkdir -p "$(dirname "$OUT")"
+import -window root "$TMP/shot.png"
+# 256 colours keep the PNG small; the picture is flat colours anyway.
+convert "$TMP/shot.png" -colors 256 "PNG8:$OUT"
+echo "wrote $OUT ($(du -k "$OUT" | cut -f1) KB)"

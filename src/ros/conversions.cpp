@@ -1,0 +1,142 @@
+#include "ekf_slam/ros/conversions.h"
+
+#include <cmath>
+
+namespace ekf_slam {
+
+namespace {
+
+// Yaw of a quaternion. The atan2 form w^2 + x^2 - y^2 - z^2 (instead of 1 - 2 (y^2 + z^2)) is
+// invariant to the quaternion's scale, so a slightly unnormalised message gives the right yaw.
+double yawOf(double x, double y, double z, double w) {
+  return std::atan2(2.0 * (w * z + x * y), w * w + x * x - y * y - z * z);
+}
+
+}  // namespace
+
+Eigen::Vector3d toPose2(const geometry_msgs::Pose& pose) {
+  const auto& q = pose.orientation;
+  return Eigen::Vector3d(pose.position.x, pose.position.y, yawOf(q.x, q.y, q.z, q.w));
+}
+
+Eigen::Vector3d toPose2(const geometry_msgs::Transform& transform) {
+  const auto& q = transform.rotation;
+  return Eigen::Vector3d(transform.translation.x, transform.translation.y,
+                         yawOf(q.x, q.y, q.z, q.w));
+}
+
+geometry_msgs::Pose toPoseMsg(const Eigen::Vector3d& pose) {
+  geometry_msgs::Pose msg;
+  msg.position.x = pose.x();
+  msg.position.y = pose.y();
+  msg.position.z = 0.0;
+  msg.orientation.x = 0.0;
+  msg.orientation.y = 0.0;
+  msg.orientation.z = std::sin(0.5 * pose.z());
+  msg.orientation.w = std::cos(0.5 * pose.z());
+  return msg;
+}
+
+OdometryInput toOdometryInput(const nav_msgs::Odometry& msg) {
+  OdometryInput odom;
+  odom.stamp = msg.header.stamp.toSec();
+  odom.twist = Eigen::Vector2d(msg.twist.twist.linear.x, msg.twist.twist.angular.z);
+  odom.pose = toPose2(msg.pose.pose);
+  return odom;
+}
+
+std::vector<Observation> toObservations(const LandmarkObservationArray& msg,
+                                        std::vector<std::int64_t>* truth_ids) {
+  std::vector<Observation> out(msg.observations.size());
+  if (truth_ids) truth_ids->assign(msg.observations.size(), -1);
+  for (std::size_t i = 0; i < msg.observations.size(); ++i) {
+    const LandmarkObservation& o = msg.observations[i];
+    Observation& obs = out[i];
+    obs.z = Eigen::Vector2d(o.range, o.bearing);
+    // Copied as is: an all-zero covariance means "use the default noise" and the pipeline
+    // substitutes it; a non-finite one is rejected there with a count.
+    obs.R << o.covariance[0], o.covariance[1], o.covariance[2], o.covariance[3];
+    obs.descriptor = o.descriptor;
+    if (truth_ids && o.has_truth_id) (*truth_ids)[i] = o.truth_id;
+  }
+  return out;
+}
+
+LandmarkObservation toObservationMsg(const Observation& obs) {
+  LandmarkObservation msg;
+  msg.range = obs.z.x();
+  msg.bearing = obs.z.y();
+  msg.covariance = {obs.R(0, 0), obs.R(0, 1), obs.R(1, 0), obs.R(1, 1)};
+  msg.descriptor = obs.descriptor;
+  msg.has_truth_id = false;
+  msg.truth_id = -1;
+  return msg;
+}
+
+LandmarkArray toLandmarkArray(const SlamPipeline& pipeline, const std::string& frame_id,
+                              const ros::Time& stamp) {
+  LandmarkArray msg;
+  msg.header.frame_id = frame_id;
+  msg.header.stamp = stamp;
+  const EkfSlam& ekf = pipeline.ekf();
+  const std::vector<LandmarkId>& ids = ekf.landmarkIds();
+  msg.landmarks.resize(ids.size());
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    Landmark& lm = msg.landmarks[k];
+    const Eigen::Vector2d m = ekf.landmark(static_cast<int>(k));
+    const Eigen::Matrix2d P = ekf.landmarkCovariance(static_cast<int>(k));
+    const LandmarkInfo& info = pipeline.landmarkInfo(ids[k]);
+    lm.id = ids[k];
+    lm.x = m.x();
+    lm.y = m.y();
+    lm.covariance = {P(0, 0), P(0, 1), P(1, 0), P(1, 1)};
+    lm.diameter = info.diameter;
+    lm.evidence = pipeline.associator().evidence(ids[k]);
+    lm.times_observed = info.times_observed;
+  }
+  return msg;
+}
+
+AssociationStats toAssociationStats(const ScanReport& report, const std::string& associator,
+                                    std::size_t landmarks, const std::string& frame_id,
+                                    const ros::Time& stamp) {
+  AssociationStats msg;
+  msg.header.frame_id = frame_id;
+  msg.header.stamp = stamp;
+  msg.associator = associator;
+  msg.scan = report.scan;
+  const std::size_t n = report.observations.size();
+  msg.observations.reserve(n);
+  for (const Observation& obs : report.observations)
+    msg.observations.push_back(toObservationMsg(obs));
+  msg.decision.assign(n, AssociationStats::REJECTED);
+  msg.landmark_id.assign(n, -1);
+  const AssociationResult& a = report.association;
+  for (std::size_t i = 0; i < n && i < a.decision.size(); ++i) {
+    switch (a.decision[i]) {
+      case Decision::kPaired:
+        msg.decision[i] = AssociationStats::PAIRED;
+        break;
+      case Decision::kNew:
+        msg.decision[i] = AssociationStats::NEW;
+        break;
+      case Decision::kTentative:
+        msg.decision[i] = AssociationStats::TENTATIVE;
+        break;
+      case Decision::kRejected:
+        msg.decision[i] = AssociationStats::REJECTED;
+        break;
+    }
+    const bool has_landmark = a.decision[i] == Decision::kPaired || a.decision[i] == Decision::kNew;
+    if (has_landmark && i < a.landmark.size()) msg.landmark_id[i] = a.landmark[i];
+  }
+  msg.removed.assign(report.removed.begin(), report.removed.end());
+  msg.association_time = report.association_s;
+  msg.update_time = report.update_s;
+  msg.nis = report.nis;
+  msg.nis_dof = static_cast<std::uint32_t>(report.nis_dof);
+  msg.landmarks = static_cast<std::uint32_t>(landmarks);
+  return msg;
+}
+
+}  // namespace ekf_slam

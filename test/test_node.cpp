@@ -1,0 +1,493 @@
+// rostests of the ekf_slam node (test/node.test, test/node_bad_input.test):
+//  - VictoriaPark.*: the node, started by the launch file with the associator given there, is fed
+//    a converted Victoria Park window by `rosbag play --clock`; it must publish pose, path,
+//    markers, map, association reports (naming that associator) and map -> odom, all finite, and
+//    process every scan of the window.
+//  - BadInput.*: NaN / inf / empty scans, bad angles, late, zero and unknown-frame stamps, bad
+//    observations: the node keeps running, reports every processed input and stays finite;
+//    services work; an unknown associator name makes the node exit non-zero listing the names.
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <gtest/gtest.h>
+#include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <signal.h>
+#include <std_srvs/Empty.h>
+#include <sys/wait.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+#include <unistd.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include "ekf_slam/AssociationStats.h"
+#include "ekf_slam/LandmarkArray.h"
+#include "ekf_slam/LandmarkObservationArray.h"
+#include "ekf_slam/LoadMap.h"
+#include "ekf_slam/SaveMap.h"
+#include "ekf_slam/data/victoria_park.h"
+#include "ekf_slam/ros/victoria_park_bag.h"
+
+namespace vp = ekf_slam::victoria_park;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// `rosbag play` as a child process in its own process group.
+class RosbagPlay {
+ public:
+  RosbagPlay(const std::string& bag, const std::string& rate) {
+    pid_ = fork();
+    if (pid_ == 0) {
+      setpgid(0, 0);
+      const char* path = std::getenv("PATH");
+      setenv("PATH", (std::string("/usr/bin:") + (path ? path : "")).c_str(), 1);
+      execlp("rosbag", "rosbag", "play", "-q", "--clock", "-d", "1", "-r", rate.c_str(),
+             bag.c_str(), static_cast<char*>(nullptr));
+      _exit(127);
+    }
+  }
+  ~RosbagPlay() {
+    if (pid_ <= 0) return;
+    kill(-pid_, SIGINT);
+    for (int i = 0; i < 50; ++i) {
+      if (waitpid(pid_, nullptr, WNOHANG) == pid_) return;
+      usleep(100000);
+    }
+    kill(-pid_, SIGKILL);
+    waitpid(pid_, nullptr, 0);
+  }
+  bool started() const { return pid_ > 0; }
+  /// True once it has exited (status in *code).
+  bool finished(int* code) {
+    if (pid_ <= 0) return true;
+    int status = 0;
+    if (waitpid(pid_, &status, WNOHANG) != pid_) return false;
+    *code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+    pid_ = -1;
+    return true;
+  }
+
+ private:
+  pid_t pid_ = -1;
+};
+
+bool finite(const geometry_msgs::Pose& p) {
+  return std::isfinite(p.position.x) && std::isfinite(p.position.y) &&
+         std::isfinite(p.orientation.z) && std::isfinite(p.orientation.w);
+}
+
+bool finite(const geometry_msgs::PoseWithCovarianceStamped& m) {
+  if (!finite(m.pose.pose)) return false;
+  for (double c : m.pose.covariance) {
+    if (!std::isfinite(c)) return false;
+  }
+  return m.pose.covariance[0] >= 0.0 && m.pose.covariance[7] >= 0.0 && m.pose.covariance[35] >= 0.0;
+}
+
+// Everything the node publishes, with counts and the last message of each kind.
+struct NodeOutputs {
+  explicit NodeOutputs(ros::NodeHandle& nh) {
+    pose = nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
+        "/ekf_slam/pose", 1000,
+        [this](const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& m) {
+          ++poses;
+          all_poses_finite = all_poses_finite && finite(*m);
+          last_pose = *m;
+        });
+    path = nh.subscribe<nav_msgs::Path>("/ekf_slam/path", 10,
+                                        [this](const nav_msgs::Path::ConstPtr& m) {
+                                          ++paths;
+                                          last_path = *m;
+                                        });
+    markers = nh.subscribe<visualization_msgs::MarkerArray>(
+        "/ekf_slam/landmarks", 10, [this](const visualization_msgs::MarkerArray::ConstPtr& m) {
+          ++marker_arrays;
+          for (const auto& mk : m->markers) {
+            if (mk.ns == "landmarks" && mk.action == visualization_msgs::Marker::ADD) {
+              ++landmark_markers;
+              all_markers_finite = all_markers_finite && finite(mk.pose) &&
+                                   std::isfinite(mk.scale.x) && mk.scale.x > 0.0;
+            }
+          }
+        });
+    map = nh.subscribe<ekf_slam::LandmarkArray>("/ekf_slam/map", 10,
+                                                [this](const ekf_slam::LandmarkArray::ConstPtr& m) {
+                                                  ++maps;
+                                                  last_map = *m;
+                                                });
+    stats = nh.subscribe<ekf_slam::AssociationStats>(
+        "/ekf_slam/associations", 1000, [this](const ekf_slam::AssociationStats::ConstPtr& m) {
+          ++associations;
+          last_stats = *m;
+          associators_seen.insert(m->associator);
+          for (auto d : m->decision) {
+            if (d == ekf_slam::AssociationStats::PAIRED) ++paired;
+            if (d == ekf_slam::AssociationStats::NEW) ++added;
+          }
+          for (const auto& o : m->observations) {
+            observations_finite =
+                observations_finite && std::isfinite(o.range) && std::isfinite(o.bearing);
+          }
+        });
+  }
+  /// All publishers of the node connected (it publishes only to subscribers).
+  bool connected() const {
+    return pose.getNumPublishers() > 0 && path.getNumPublishers() > 0 &&
+           markers.getNumPublishers() > 0 && map.getNumPublishers() > 0 &&
+           stats.getNumPublishers() > 0;
+  }
+
+  ros::Subscriber pose, path, markers, map, stats;
+  int poses = 0, paths = 0, marker_arrays = 0, landmark_markers = 0, maps = 0, associations = 0;
+  int paired = 0, added = 0;
+  bool all_poses_finite = true, all_markers_finite = true, observations_finite = true;
+  std::set<std::string> associators_seen;
+  geometry_msgs::PoseWithCovarianceStamped last_pose;
+  nav_msgs::Path last_path;
+  ekf_slam::LandmarkArray last_map;
+  ekf_slam::AssociationStats last_stats;
+};
+
+bool waitFor(const std::function<bool()>& done, double seconds) {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+  while (ros::ok() && ros::WallTime::now() < deadline) {
+    ros::spinOnce();
+    if (done()) return true;
+    ros::WallDuration(0.005).sleep();
+  }
+  ros::spinOnce();
+  return done();
+}
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
+TEST(VictoriaPark, NodePublishesEverything) {
+  ros::NodeHandle nh, pnh("~");
+  std::string associator;
+  ASSERT_TRUE(pnh.getParam("associator", associator)) << "the launch file sets ~associator";
+
+  vp::BagOptions options;
+  options.data_dir = vp::defaultDataDir();
+  if (!fs::exists(fs::path(options.data_dir) / "aa3_dr.mat")) {
+    GTEST_SKIP() << "Victoria Park data not found in " << options.data_dir << " (set VP_DATA)";
+  }
+  std::string templ = (fs::temp_directory_path() / "ekf_slam_node_XXXXXX").string();
+  ASSERT_NE(mkdtemp(templ.data()), nullptr);
+  const fs::path tmp(templ);
+  options.out_path = (tmp / "window.bag").string();
+  options.start_s = 100.0;
+  options.end_s = 115.0;
+  const vp::BagCounts counts = vp::writeVictoriaParkBag(options);
+  ASSERT_GT(counts.scans, 30u);
+
+  NodeOutputs out(nh);
+  ASSERT_TRUE(waitFor([&] { return out.connected(); }, 20.0)) << "node outputs not advertised";
+
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  bool have_map_odom = false;
+  geometry_msgs::TransformStamped map_odom;
+  {
+    RosbagPlay play(options.out_path, "3");
+    ASSERT_TRUE(play.started());
+    int code = 0;
+    const bool done = waitFor([&] { return play.finished(&code); }, 40.0);
+    ASSERT_TRUE(done) << "rosbag play did not finish";
+    EXPECT_EQ(code, 0) << "rosbag play failed";
+    // The last scans wait for later odometry; the node processes them after its input timeout.
+    waitFor([&] { return out.associations >= static_cast<int>(counts.scans); }, 10.0);
+    // Markers and the path come at the visualisation rate: wait for a set with the final map.
+    waitFor([&] { return out.marker_arrays > 0 && out.paths > 0 && out.maps > 0; }, 5.0);
+    try {
+      map_odom = buffer.lookupTransform("map", "odom", ros::Time(0));
+      have_map_odom = true;
+    } catch (const tf2::TransformException& e) {
+      ADD_FAILURE() << "no map -> odom: " << e.what();
+    }
+  }
+  fs::remove_all(tmp);
+
+  // Every scan of the window is processed and reported, by the plugin asked for.
+  EXPECT_EQ(out.associations, static_cast<int>(counts.scans));
+  ASSERT_EQ(out.associators_seen.size(), 1u);
+  EXPECT_EQ(*out.associators_seen.begin(), associator);
+  EXPECT_GT(out.added, 3) << "no landmarks initialised";
+  EXPECT_GT(out.paired, 10) << "landmarks never re-observed";
+  EXPECT_TRUE(out.observations_finite);
+  EXPECT_EQ(out.last_stats.scan + 1, static_cast<unsigned>(out.associations));
+
+  EXPECT_EQ(out.poses, out.associations);
+  EXPECT_TRUE(out.all_poses_finite);
+  EXPECT_EQ(out.last_pose.header.frame_id, "map");
+
+  ASSERT_GT(out.paths, 0);
+  EXPECT_EQ(out.last_path.header.frame_id, "map");
+  EXPECT_GT(out.last_path.poses.size(), counts.scans / 2);
+  for (const auto& p : out.last_path.poses) ASSERT_TRUE(finite(p.pose));
+
+  EXPECT_GT(out.marker_arrays, 0);
+  EXPECT_GT(out.landmark_markers, 0);
+  EXPECT_TRUE(out.all_markers_finite);
+
+  ASSERT_GT(out.maps, 0);
+  EXPECT_EQ(out.last_map.header.frame_id, "map");
+  EXPECT_GT(out.last_map.landmarks.size(), 3u);
+  EXPECT_EQ(out.last_map.landmarks.size(), out.last_stats.landmarks);
+  for (const auto& lm : out.last_map.landmarks) {
+    ASSERT_TRUE(std::isfinite(lm.x) && std::isfinite(lm.y));
+    ASSERT_GT(lm.covariance[0], 0.0);
+    ASSERT_GT(lm.covariance[3], 0.0);
+  }
+
+  // The vehicle drives through the window: the estimate moves with the odometry.
+  ASSERT_TRUE(have_map_odom);
+  EXPECT_TRUE(std::isfinite(map_odom.transform.translation.x));
+  EXPECT_TRUE(std::isfinite(map_odom.transform.rotation.w));
+  if (out.last_path.poses.size() > 2) {
+    const auto& a = out.last_path.poses.front().pose.position;
+    const auto& b = out.last_path.poses.back().pose.position;
+    EXPECT_GT(std::hypot(b.x - a.x, b.y - a.y), 5.0) << "the pose did not follow the drive";
+  }
+}
+
+// --- bad input ------------------------------------------------------------------------------
+
+class BadInput : public testing::Test {
+ protected:
+  void SetUp() override {
+    scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("/scan", 100);
+    odom_pub_ = nh_.advertise<nav_msgs::Odometry>("/odom", 100);
+    obs_pub_ = nh_.advertise<ekf_slam::LandmarkObservationArray>("/observations", 100);
+    ASSERT_TRUE(waitFor(
+        [&] {
+          return scan_pub_.getNumSubscribers() > 0 && odom_pub_.getNumSubscribers() > 0 &&
+                 obs_pub_.getNumSubscribers() > 0;
+        },
+        20.0))
+        << "the node does not subscribe to scan / odom / observations";
+    t0_ = ros::Time::now();
+  }
+
+  void odom(double t) {
+    nav_msgs::Odometry m;
+    m.header.stamp = t0_ + ros::Duration(t);
+    m.header.frame_id = "odom";
+    m.child_frame_id = "base_link";
+    m.pose.pose.position.x = t;  // 1 m/s straight ahead
+    m.pose.pose.orientation.w = 1.0;
+    m.twist.twist.linear.x = 1.0;
+    odom_pub_.publish(m);
+  }
+
+  // A scan in base_link (no tf needed) seeing two "trunks" in front of a far wall.
+  sensor_msgs::LaserScan scan(double t, const std::string& frame = "base_link") {
+    sensor_msgs::LaserScan m;
+    m.header.stamp = t0_ + ros::Duration(t);
+    m.header.frame_id = frame;
+    m.angle_min = -M_PI / 2;
+    m.angle_increment = M_PI / 360;
+    m.angle_max = M_PI / 2;
+    m.range_min = 0.1;
+    m.range_max = 80.0;
+    m.ranges.assign(361, 40.0f);
+    for (int b = 170; b < 174; ++b) m.ranges[b] = 10.0f;
+    for (int b = 220; b < 226; ++b) m.ranges[b] = 8.0f;
+    return m;
+  }
+
+  ros::NodeHandle nh_;
+  ros::Publisher scan_pub_, odom_pub_, obs_pub_;
+  ros::Time t0_;
+};
+
+TEST_F(BadInput, NodeKeepsRunningAndStaysFinite) {
+  NodeOutputs out(nh_);
+  ASSERT_TRUE(waitFor([&] { return out.connected(); }, 20.0));
+  const float inf = std::numeric_limits<float>::infinity();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+
+  int expected = 0;  // inputs the node must process and report
+  auto send = [&](const sensor_msgs::LaserScan& s, bool counts) {
+    scan_pub_.publish(s);
+    if (counts) ++expected;
+    ros::WallDuration(0.02).sleep();
+    ros::spinOnce();
+  };
+  double t = 0.0;
+  for (int k = 0; k < 5; ++k, t += 0.1) {
+    odom(t);
+    send(scan(t + 0.05), true);
+  }
+  {  // NaN and inf ranges
+    odom(t);
+    auto s = scan(t + 0.05);
+    for (int b = 0; b < 361; b += 3) s.ranges[b] = nan;
+    for (int b = 1; b < 361; b += 3) s.ranges[b] = inf;
+    for (int b = 2; b < 361; b += 7) s.ranges[b] = -inf;
+    send(s, true);
+    t += 0.1;
+  }
+  {  // all NaN
+    odom(t);
+    auto s = scan(t + 0.05);
+    s.ranges.assign(361, nan);
+    send(s, true);
+    t += 0.1;
+  }
+  {  // empty
+    odom(t);
+    auto s = scan(t + 0.05);
+    s.ranges.clear();
+    send(s, true);
+    t += 0.1;
+  }
+  {  // non-finite angles
+    odom(t);
+    auto s = scan(t + 0.05);
+    s.angle_increment = nan;
+    send(s, true);
+    t += 0.1;
+  }
+  {  // late: older than what the node already used (but no jump back in time)
+    odom(t);
+    send(scan(t - 0.35), true);
+    t += 0.1;
+  }
+  {  // zero stamp: skipped with a warning (it would read as a jump back in time)
+    auto s = scan(0.0);
+    s.header.stamp = ros::Time(0);
+    send(s, false);
+  }
+  {  // unknown sensor frame: no tf, skipped with a warning
+    odom(t);
+    send(scan(t + 0.05, "no_such_frame"), false);
+    t += 0.1;
+  }
+  {  // external observations: one NaN, one without covariance, one inf covariance
+    odom(t);
+    ekf_slam::LandmarkObservationArray o;
+    o.header.stamp = t0_ + ros::Duration(t + 0.05);
+    o.header.frame_id = "base_link";
+    o.observations.resize(3);
+    o.observations[0].range = kNaN;
+    o.observations[0].bearing = 0.1;
+    o.observations[1].range = 12.0;
+    o.observations[1].bearing = 0.2;
+    o.observations[1].descriptor = kNaN;
+    o.observations[2].range = 9.0;
+    o.observations[2].bearing = -0.2;
+    o.observations[2].covariance = {std::numeric_limits<double>::infinity(), 0, 0, 1e-4};
+    obs_pub_.publish(o);
+    ++expected;
+    ros::WallDuration(0.02).sleep();
+    t += 0.1;
+  }
+  for (int k = 0; k < 5; ++k, t += 0.1) {
+    odom(t);
+    send(scan(t + 0.05), true);
+  }
+  odom(t + 0.2);  // releases the last scan
+
+  EXPECT_TRUE(waitFor([&] { return out.associations >= expected; }, 10.0))
+      << out.associations << " of " << expected << " inputs reported";
+  waitFor([&] { return out.maps > 0; }, 2.0);
+  EXPECT_EQ(out.associations, expected);
+  EXPECT_EQ(out.poses, expected);
+  EXPECT_TRUE(out.all_poses_finite);
+  EXPECT_TRUE(out.all_markers_finite);
+  EXPECT_TRUE(out.observations_finite) << "a non-finite observation reached the report";
+  EXPECT_TRUE(finite(out.last_pose));
+  // 1 m/s for about 1.6 s along x.
+  EXPECT_GT(out.last_pose.pose.pose.position.x, 0.5);
+  EXPECT_LT(out.last_pose.pose.pose.position.x, 3.0);
+  for (const auto& lm : out.last_map.landmarks) {
+    EXPECT_TRUE(std::isfinite(lm.x) && std::isfinite(lm.y));
+  }
+
+  // Still alive: the services answer.
+  std_srvs::Empty reset;
+  EXPECT_TRUE(ros::service::waitForService("/ekf_slam/reset", ros::Duration(5.0)));
+  EXPECT_TRUE(ros::service::call("/ekf_slam/reset", reset));
+}
+
+TEST_F(BadInput, SaveAndLoadMap) {
+  // Build a small map, save it, reset, load it back.
+  double t = 100.0;  // after the previous test's inputs, which the reset left behind
+  for (int k = 0; k < 3; ++k, t += 0.1) {
+    odom(t);
+    scan_pub_.publish(scan(t + 0.05));
+    ros::WallDuration(0.02).sleep();
+  }
+  odom(t + 0.2);
+  ros::WallDuration(0.5).sleep();
+
+  const std::string path = (fs::temp_directory_path() / "ekf_slam_test_node_map.txt").string();
+  ekf_slam::SaveMap save;
+  save.request.path = path;
+  ASSERT_TRUE(ros::service::call("/ekf_slam/save_map", save));
+  EXPECT_TRUE(save.response.success) << save.response.message;
+  EXPECT_TRUE(fs::exists(path));
+
+  ekf_slam::SaveMap no_path;  // neither a path nor ~map_file: a clear failure
+  ASSERT_TRUE(ros::service::call("/ekf_slam/save_map", no_path));
+  EXPECT_FALSE(no_path.response.success);
+  EXPECT_NE(no_path.response.message.find("map_file"), std::string::npos);
+
+  ekf_slam::LoadMap load;
+  load.request.path = path;
+  load.request.reset_pose = true;
+  ASSERT_TRUE(ros::service::call("/ekf_slam/load_map", load));
+  EXPECT_TRUE(load.response.success) << load.response.message;
+
+  ekf_slam::LoadMap missing;
+  missing.request.path = path + ".does_not_exist";
+  ASSERT_TRUE(ros::service::call("/ekf_slam/load_map", missing));
+  EXPECT_FALSE(missing.response.success);
+  EXPECT_NE(missing.response.message.find(".does_not_exist"), std::string::npos);
+  fs::remove(path);
+}
+
+TEST(UnknownAssociator, ExitsNonZeroListingTheAvailableOnes) {
+  const std::string log = (fs::temp_directory_path() / "ekf_slam_test_node_bad_name.log").string();
+  // Its own name, so that it does not replace the node under test; the master is rostest's.
+  const std::string cmd = std::string("'") + EKF_SLAM_NODE_BIN +
+                          "' __name:=ekf_slam_bad_name _associator:=ekf_slam/NoSuchThing > '" +
+                          log + "' 2>&1";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_NE(WEXITSTATUS(status), 0);
+  const std::string text = readFile(log);
+  EXPECT_NE(text.find("NoSuchThing"), std::string::npos) << text;
+  for (const char* name :
+       {"ekf_slam/DJNN", "ekf_slam/NN", "ekf_slam/JCBB", "ekf_slam/NNJCBB", "ekf_slam/Hungarian"}) {
+    EXPECT_NE(text.find(name), std::string::npos) << "missing " << name << " in:\n" << text;
+  }
+  fs::remove(log);
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_node");
+  ros::NodeHandle nh;
+  return RUN_ALL_TESTS();
+}

@@ -5,15 +5,16 @@
 namespace ekf_slam {
 
 YamlParameterSource::YamlParameterSource(const YAML::Node& root, const std::string& section,
-                                         const std::string& origin)
+                                         const std::string& origin, Scope scope)
     : origin_(origin), section_(section) {
   if (!root || root.IsNull()) return;  // an empty file sets nothing
   if (!root.IsMap()) throw std::runtime_error(origin + ": expected a mapping of parameters");
-  for (const auto& kv : root) {
-    const auto key = kv.first.as<std::string>();
-    // Sub-mappings are other associators' sections; only ours is read, below.
-    if (kv.second.IsMap()) continue;
-    values_[key] = Entry{kv.second, false};
+  if (scope == Scope::kTopLevelAndSection || section.empty()) {
+    for (const auto& kv : root) {
+      // Sub-mappings are other associators' sections; only ours is read, below.
+      if (kv.second.IsMap()) continue;
+      values_[kv.first.as<std::string>()] = Entry{kv.second, false};
+    }
   }
   if (section.empty() || !root[section]) return;
   const YAML::Node sub = root[section];
@@ -22,26 +23,26 @@ YamlParameterSource::YamlParameterSource(const YAML::Node& root, const std::stri
 }
 
 YamlParameterSource YamlParameterSource::fromFile(const std::string& path,
-                                                  const std::string& section) {
+                                                  const std::string& section, Scope scope) {
   YAML::Node root;
   try {
     root = YAML::LoadFile(path);
   } catch (const YAML::Exception& e) {
     throw std::runtime_error("cannot read parameters from " + path + ": " + e.what());
   }
-  return YamlParameterSource(root, section, path);
+  return YamlParameterSource(root, section, path, scope);
 }
 
 YamlParameterSource YamlParameterSource::fromString(const std::string& text,
                                                     const std::string& section,
-                                                    const std::string& origin) {
+                                                    const std::string& origin, Scope scope) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     throw std::runtime_error("cannot parse parameters in " + origin + ": " + e.what());
   }
-  return YamlParameterSource(root, section, origin);
+  return YamlParameterSource(root, section, origin, scope);
 }
 
 std::string YamlParameterSource::qualify(const std::string& name) const {

@@ -8,6 +8,9 @@
 //     sensor_range: 30.0        # DJNN only
 //
 // Read with section "DJNN", both entries are visible; read with section "JCBB", only the first.
+// Scope::kSectionOnly reads the section alone, as a node reads its ~DJNN namespace: the offline
+// runner uses it so that one file (pipeline parameters at the top level, each associator's
+// under its name) configures the runner exactly as rosparam-loaded into the node.
 #pragma once
 
 #include <map>
@@ -21,13 +24,21 @@ namespace ekf_slam {
 
 class YamlParameterSource : public ParameterSource {
  public:
+  /// Which entries a source with a section sees.
+  enum class Scope {
+    kTopLevelAndSection,  ///< top-level scalars, overridden by the section's entries
+    kSectionOnly,         ///< the section's entries only (none when the section is absent)
+  };
+
   /// Empty: every get() returns false.
   YamlParameterSource() = default;
   /// Throws std::runtime_error when the file cannot be read or parsed or is not a mapping.
-  static YamlParameterSource fromFile(const std::string& path, const std::string& section = "");
+  static YamlParameterSource fromFile(const std::string& path, const std::string& section = "",
+                                      Scope scope = Scope::kTopLevelAndSection);
   /// `origin` names the text in error messages.
   static YamlParameterSource fromString(const std::string& text, const std::string& section = "",
-                                        const std::string& origin = "<yaml>");
+                                        const std::string& origin = "<yaml>",
+                                        Scope scope = Scope::kTopLevelAndSection);
 
   bool get(const std::string& name, double* value) const override;
   bool get(const std::string& name, int* value) const override;
@@ -41,8 +52,8 @@ class YamlParameterSource : public ParameterSource {
   bool contains(const std::string& name) const { return values_.count(name) > 0; }
 
  private:
-  YamlParameterSource(const YAML::Node& root, const std::string& section,
-                      const std::string& origin);
+  YamlParameterSource(const YAML::Node& root, const std::string& section, const std::string& origin,
+                      Scope scope);
   template <typename T>
   bool read(const std::string& name, const char* expected, T* value) const;
 

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Full Victoria Park offline run per associator (ekf_slam_offline, config/victoria_park.yaml),
+# best of N runs (default 3) by wall time; prints a markdown table of the wall time of the
+# processing loop and its stages, plus the run's landmarks and GPS RMSE.
+#   scripts/bench_vp.sh [ASSOCIATOR ...]     (default: NN JCBB DJNN NNJCBB Hungarian)
+# Env: RUNS (3), VP_BAG (default $EKF_SLAM_BUILD/vp.bag, converted from $VP_DATA if missing).
+set -eo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
+RUNS=${RUNS:-3}
+VP_BAG=${VP_BAG:-$EKF_SLAM_BUILD/vp.bag}
+associators=("$@")
+((${#associators[@]})) || associators=(NN JCBB DJNN NNJCBB Hungarian)
+
+[[ -f "$EKF_SLAM_BUILD/devel/setup.bash" ]] || { echo "no build in $EKF_SLAM_BUILD: run scripts/build.sh"; exit 1; }
+source "$EKF_SLAM_BUILD/devel/setup.bash"
+if [[ ! -f "$VP_BAG" ]]; then
+  rosrun ekf_slam victoria_park_to_bag --data "$VP_DATA" --out "$VP_BAG" >&2
+fi
+out="$EKF_SLAM_BUILD/bench_vp"
+mkdir -p "$out"
+for a in "${associators[@]}"; do
+  for ((r = 1; r <= RUNS; ++r)); do
+    rosrun ekf_slam ekf_slam_offline --bag "$VP_BAG" --params "$EKF_SLAM_ROOT/config/victoria_park.yaml" \
+      --associator "$a" --out "$out/$a.$r" --no-plot --no-progress > /dev/null
+  done
+done
+
+echo "Machine: $(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //');" \
+  "best of $RUNS runs; bag $(basename "$VP_BAG")"
+/usr/bin/python3 - "$out" "$RUNS" "${associators[@]}" <<'PY'
+import json, sys
+out, runs, names = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
+print("| associator | wall [s] | extraction [s] | association [s] | update [s] | assoc. median / p99 [us] "
+      "| update median / p99 [us] | bag read [s] | scans | landmarks | GPS RMSE [m] |")
+print("|---|---|---|---|---|---|---|---|---|---|---|")
+for n in names:
+    ms = [json.load(open(f"{out}/{n}.{r}/metrics.json")) for r in range(1, runs + 1)]
+    m = min(ms, key=lambda m: m["wall_time_s"])
+    print(f"| {m['associator']} | {m['wall_time_s']:.3f} | {m['extraction_time_s']:.3f} "
+          f"| {m['association_time_s']:.3f} | {m['update_time_s']:.3f} "
+          f"| {m['association_us_median']:.1f} / {m['association_us_p99']:.1f} "
+          f"| {m['update_us_median']:.1f} / {m['update_us_p99']:.0f} | {m['bag_read_s']:.3f} "
+          f"| {m['scans']} | {m['landmarks']} | {m.get('gps_rmse_m') or float('nan'):.2f} |")
+PY

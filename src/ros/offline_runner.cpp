@@ -1,0 +1,710 @@
+#include "ekf_slam/ros/offline_runner.h"
+
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+#include <geometry_msgs/PointStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/package.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2/buffer_core.h>
+#include <tf2/exceptions.h>
+#include <tf2_msgs/TFMessage.h>
+#include <nlohmann/json.hpp>
+
+#include "ekf_slam/LandmarkObservationArray.h"
+#include "ekf_slam/core/input_sequencer.h"
+#include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/core/trajectory_metrics.h"
+#include "ekf_slam/ros/associator_loader.h"
+#include "ekf_slam/ros/conversions.h"
+#include "ekf_slam/tools/association_problem.h"
+#include "ekf_slam/tools/yaml_parameter_source.h"
+
+namespace ekf_slam {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Forwards every call to the configured associator, and on request captures the association
+// problem of one scan: associate() sees the EKF predicted to the scan and the final observations,
+// which is exactly what a replay needs, without the pipeline exposing its internals.
+class CapturingAssociator : public DataAssociation {
+ public:
+  explicit CapturingAssociator(std::shared_ptr<DataAssociation> inner) : inner_(std::move(inner)) {}
+
+  void configure(const ParameterSource& params) override { inner_->configure(params); }
+  std::string name() const override { return inner_->name(); }
+  AssociationResult associate(const AssociationContext& context) override {
+    if (armed_) {
+      armed_ = false;
+      problem_ = makeAssociationProblem(context.ekf(), context.model(), context.observations());
+    }
+    return inner_->associate(context);
+  }
+  void landmarkAdded(int obs, LandmarkId id) override { inner_->landmarkAdded(obs, id); }
+  void reset() override { inner_->reset(); }
+  int evidence(LandmarkId id) const override { return inner_->evidence(id); }
+  std::vector<TentativeFeature> tentativeFeatures() const override {
+    return inner_->tentativeFeatures();
+  }
+
+  /// Captures the next associate() call.
+  void arm() {
+    armed_ = true;
+    problem_.reset();
+  }
+  void disarm() { armed_ = false; }
+  const std::optional<AssociationProblem>& problem() const { return problem_; }
+
+ private:
+  std::shared_ptr<DataAssociation> inner_;
+  bool armed_ = false;
+  std::optional<AssociationProblem> problem_;
+};
+
+// --- bag contents --------------------------------------------------------------------------------
+
+struct ScanInput {
+  double stamp;
+  std::vector<float> ranges;
+  double angle_min;
+  double angle_increment;
+  std::string frame_id;
+};
+struct ObservationsInput {
+  double stamp;
+  std::vector<Observation> observations;
+  std::vector<std::int64_t> truth_ids;
+  std::string frame_id;
+};
+
+// Everything the run needs from the bag, read up front so that the processing loop measures the
+// pipeline, not rosbag's decompression and deserialisation.
+// Order of the inputs in the bag (what a live node would receive).
+struct Arrival {
+  enum Kind : std::uint8_t { kOdometry, kScan, kObservations } kind;
+  std::uint32_t index;  // into the vector of that kind
+};
+// A scan handed to the sequencer: which vector, which entry.
+struct InputRef {
+  bool observations = false;
+  std::uint32_t index = 0;
+};
+
+struct BagContents {
+  std::vector<Arrival> arrivals;
+  std::vector<OdometryInput> odometry;
+  std::vector<ScanInput> scans;
+  std::vector<ObservationsInput> observation_sets;
+  std::vector<StampedPoint> gps;
+  std::vector<geometry_msgs::TransformStamped> tf_static;
+  bool has_truth_ids = false;
+};
+
+BagContents readBag(const OfflineOptions& o) {
+  rosbag::Bag bag;
+  try {
+    bag.open(o.bag_path, rosbag::bagmode::Read);
+  } catch (const rosbag::BagException& e) {
+    throw std::runtime_error("cannot open bag " + o.bag_path + ": " + e.what());
+  }
+  BagContents c;
+  rosbag::View view(
+      bag, rosbag::TopicQuery(std::vector<std::string>{
+               o.scan_topic, o.odom_topic, o.observations_topic, o.gps_topic, o.tf_static_topic}));
+  for (const rosbag::MessageInstance& m : view) {
+    const std::string& topic = m.getTopic();
+    if (topic == o.odom_topic) {
+      if (const auto msg = m.instantiate<nav_msgs::Odometry>()) {
+        c.arrivals.push_back({Arrival::kOdometry, static_cast<std::uint32_t>(c.odometry.size())});
+        c.odometry.push_back(toOdometryInput(*msg));
+        continue;
+      }
+    } else if (topic == o.scan_topic) {
+      if (const auto msg = m.instantiate<sensor_msgs::LaserScan>()) {
+        c.arrivals.push_back({Arrival::kScan, static_cast<std::uint32_t>(c.scans.size())});
+        c.scans.push_back({msg->header.stamp.toSec(), msg->ranges, msg->angle_min,
+                           msg->angle_increment, msg->header.frame_id});
+        continue;
+      }
+    } else if (topic == o.observations_topic) {
+      if (const auto msg = m.instantiate<LandmarkObservationArray>()) {
+        ObservationsInput in{msg->header.stamp.toSec(), {}, {}, msg->header.frame_id};
+        in.observations = toObservations(*msg, &in.truth_ids);
+        for (const auto id : in.truth_ids) c.has_truth_ids |= id != -1;
+        c.arrivals.push_back(
+            {Arrival::kObservations, static_cast<std::uint32_t>(c.observation_sets.size())});
+        c.observation_sets.push_back(std::move(in));
+        continue;
+      }
+    } else if (topic == o.gps_topic) {
+      if (const auto msg = m.instantiate<geometry_msgs::PointStamped>()) {
+        c.gps.push_back({msg->header.stamp.toSec(), Eigen::Vector2d(msg->point.x, msg->point.y)});
+        continue;
+      }
+    } else if (topic == o.tf_static_topic) {
+      if (const auto msg = m.instantiate<tf2_msgs::TFMessage>()) {
+        c.tf_static.insert(c.tf_static.end(), msg->transforms.begin(), msg->transforms.end());
+        continue;
+      }
+    }
+    throw std::runtime_error(o.bag_path + ": topic " + topic + " has type " + m.getDataType() +
+                             ", not the expected one");
+  }
+  if (c.scans.empty() && c.observation_sets.empty()) {
+    throw std::runtime_error(o.bag_path + ": no messages on " + o.scan_topic + " or " +
+                             o.observations_topic + " (see --scan-topic / --observations-topic)");
+  }
+  if (c.odometry.empty()) {
+    throw std::runtime_error(o.bag_path + ": no odometry on " + o.odom_topic +
+                             " (see --odom-topic)");
+  }
+  return c;
+}
+
+// Pose (x, y, yaw) of `frame` on the base frame from the bag's static transforms (chains too).
+Eigen::Vector3d sensorOffset(const BagContents& c, const OfflineOptions& o,
+                             const std::string& frame) {
+  if (frame.empty() || frame == o.base_frame) return Eigen::Vector3d::Zero();
+  tf2::BufferCore buffer;
+  for (const auto& t : c.tf_static) buffer.setTransform(t, "bag", /*is_static=*/true);
+  try {
+    return toPose2(buffer.lookupTransform(o.base_frame, frame, ros::Time(0)).transform);
+  } catch (const tf2::TransformException& e) {
+    throw std::runtime_error(o.bag_path + ": no static transform " + o.base_frame + " -> " + frame +
+                             " on " + o.tf_static_topic + " (" + e.what() +
+                             "); the sensor pose on the vehicle is needed");
+  }
+}
+
+// Truth id of a processed observation: the pipeline may drop observations (range filter,
+// non-finite), so match it to the message's entry by its exact measurement.
+std::int64_t truthIdOf(const Observation& ob, const std::vector<std::int64_t>& truth_ids,
+                       const std::vector<Observation>& original) {
+  for (std::size_t i = 0; i < original.size() && i < truth_ids.size(); ++i) {
+    if (original[i].z == ob.z) return truth_ids[i];
+  }
+  return -1;
+}
+
+// One trajectory.csv row.
+struct PoseRow {
+  double stamp;
+  Eigen::Vector3d pose;
+  Eigen::Vector3d variance;  // diagonal of the pose covariance
+};
+// One associations.csv row.
+struct AssociationRow {
+  std::uint32_t scan;
+  std::uint32_t obs;
+  double stamp;
+  double range, bearing, diameter;
+  Decision decision;
+  LandmarkId landmark;
+  std::int64_t truth_id;
+};
+
+// --- statistics ----------------------------------------------------------------------------------
+
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
+// JSON has no NaN: unknown numbers become null.
+nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+// --- progress bar --------------------------------------------------------------------------------
+
+class Progress {
+ public:
+  Progress(bool enabled, std::size_t total) : enabled_(enabled && total > 0), total_(total) {}
+  void update(std::size_t done) {
+    if (!enabled_) return;
+    const int percent = static_cast<int>(100 * done / total_);
+    if (percent == last_) return;
+    last_ = percent;
+    const int width = 40, filled = percent * width / 100;
+    std::fprintf(stderr, "\r[%.*s%*s] %3d%% (%zu/%zu)", filled,
+                 "########################################", width - filled, "", percent, done,
+                 total_);
+    std::fflush(stderr);
+  }
+  void finish() {
+    if (enabled_) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  bool enabled_;
+  std::size_t total_;
+  int last_ = -1;
+};
+
+// --- output --------------------------------------------------------------------------------------
+
+void makeDirectory(const std::string& dir) {
+  std::string partial;
+  std::stringstream ss(dir);
+  std::string part;
+  if (!dir.empty() && dir[0] == '/') partial = "/";
+  while (std::getline(ss, part, '/')) {
+    if (part.empty()) continue;
+    partial += part + "/";
+    if (::mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST) {
+      throw std::runtime_error("cannot create output folder " + dir + ": " + std::strerror(errno));
+    }
+  }
+  struct stat st;
+  if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
+    throw std::runtime_error("output folder " + dir + " is not a directory");
+  }
+}
+
+std::ofstream openOutput(const std::string& path) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write " + path);
+  out << std::setprecision(10);
+  return out;
+}
+
+std::string plotScript() {
+  const std::string pkg = ros::package::getPath("ekf_slam");
+  if (!pkg.empty()) return pkg + "/scripts/plot_map.py";
+  return std::string(EKF_SLAM_SOURCE_DIR) + "/scripts/plot_map.py";
+}
+
+std::string shellQuote(const std::string& s) {
+  std::string out = "'";
+  for (const char ch : s) out += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
+  return out + "'";
+}
+
+}  // namespace
+
+// -------------------------------------------------------------------------------------------------
+
+OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
+  if (o.bag_path.empty()) throw std::runtime_error("no bag given (--bag FILE)");
+  if (o.out_dir.empty()) throw std::runtime_error("no output folder given (--out DIR)");
+
+  // Parameters: the pipeline's at the top level, the associator's in its own section only, as
+  // the node reads ~ and ~<NAME> after rosparam loads the same file.
+  const YamlParameterSource top =
+      o.params_path.empty() ? YamlParameterSource() : YamlParameterSource::fromFile(o.params_path);
+  std::string name = o.associator;
+  if (name.empty() && !top.get("associator", &name)) name = AssociatorLoader::kDefault;
+  const std::string lookup = AssociatorLoader::lookupName(name);
+  const std::string short_name = lookup.substr(lookup.rfind('/') + 1);
+  const PipelineConfig config = readPipelineConfig(top);
+  const YamlParameterSource assoc_params =
+      o.params_path.empty()
+          ? YamlParameterSource()
+          : YamlParameterSource::fromFile(o.params_path, short_name,
+                                          YamlParameterSource::Scope::kSectionOnly);
+  AssociatorLoader loader;
+  auto capturing = std::make_shared<CapturingAssociator>(loader.create(lookup, assoc_params));
+  SlamPipeline pipeline(config, capturing);
+
+  makeDirectory(o.out_dir);
+
+  // Bag reading is timed apart from the processing.
+  const auto t_read = Clock::now();
+  BagContents bag = readBag(o);
+  const double bag_read_s = secondsSince(t_read);
+
+  const std::string sensor_frame =
+      !bag.scans.empty() ? bag.scans.front().frame_id : bag.observation_sets.front().frame_id;
+  const Eigen::Vector3d offset = sensorOffset(bag, o, sensor_frame);
+  pipeline.setSensorOffset(offset);
+
+  std::vector<double> assoc_us, update_us;
+  const std::size_t num_scans = bag.scans.size() + bag.observation_sets.size();
+  assoc_us.reserve(num_scans);
+  update_us.reserve(num_scans);
+  std::vector<StampedPoint> laser_track;
+  laser_track.reserve(num_scans);
+  // Output rows are kept in memory and written after the loop, so that the wall time measures
+  // the SLAM processing alone.
+  std::vector<PoseRow> poses;
+  poses.reserve(num_scans);
+  std::vector<AssociationRow> rows;
+  rows.reserve(8 * num_scans);
+  double extraction_s = 0.0, association_s = 0.0, update_s = 0.0;
+  std::uint32_t scans_done = 0;
+  bool dumped = false;
+  const std::string dump_path =
+      o.dump_problem_scan ? o.out_dir + "/problem_" + std::to_string(*o.dump_problem_scan) + ".json"
+                          : std::string();
+
+  // One processed scan: bookkeeping and output rows.
+  const auto record = [&](const ScanReport& r, const ObservationsInput* input) {
+    extraction_s += r.extraction_s;
+    association_s += r.association_s;
+    update_s += r.update_s;
+    assoc_us.push_back(1e6 * r.association_s);
+    update_us.push_back(1e6 * r.update_s);
+    const Eigen::Vector3d x = pipeline.pose();
+    const Eigen::Matrix3d P = pipeline.poseCovariance();
+    poses.push_back({r.stamp, x, P.diagonal()});
+    laser_track.push_back({r.stamp, pipeline.observationModel().sensorPose(x).head<2>()});
+    for (std::size_t i = 0; i < r.observations.size(); ++i) {
+      const Observation& ob = r.observations[i];
+      const Decision d =
+          i < r.association.decision.size() ? r.association.decision[i] : Decision::kRejected;
+      const LandmarkId id =
+          (d == Decision::kPaired || d == Decision::kNew) ? r.association.landmark[i] : kNoLandmark;
+      const std::int64_t truth_id =
+          input ? truthIdOf(ob, input->truth_ids, input->observations) : -1;
+      rows.push_back({r.scan, static_cast<std::uint32_t>(i), r.stamp, ob.z.x(), ob.z.y(),
+                      ob.descriptor, d, id, truth_id});
+    }
+    if (o.dump_problem_scan && r.scan == *o.dump_problem_scan) {
+      capturing->disarm();
+      // No associate() call (no observations): the state is the pre-association one anyway.
+      const AssociationProblem problem =
+          capturing->problem()
+              ? *capturing->problem()
+              : makeAssociationProblem(pipeline.ekf(), pipeline.observationModel(), r.observations);
+      writeAssociationProblem(problem, dump_path);
+      dumped = true;
+    }
+    ++scans_done;
+  };
+
+  // The sequencer puts the inputs in stamp order exactly as in the node; they are handed to it
+  // in bag order, as a live node would receive them.
+  InputSequencer<InputRef> sequencer(
+      InputSequencerConfig{config.max_latency, config.time_jump_threshold});
+  std::uint64_t time_jumps = 0;
+  InputSequencer<InputRef>::Item item;
+  const auto drain = [&]() {
+    while (sequencer.next(&item)) {
+      switch (item.kind) {
+        case InputSequencer<InputRef>::Kind::kOdometry:
+          pipeline.addOdometry(item.odometry);
+          break;
+        case InputSequencer<InputRef>::Kind::kTimeJump:
+          ++time_jumps;
+          log << "warning: time jumped backwards to " << std::fixed << item.stamp
+              << std::defaultfloat << " s: the map is reset\n";
+          pipeline.reset();
+          break;
+        case InputSequencer<InputRef>::Kind::kScan:
+          if (o.dump_problem_scan && scans_done == *o.dump_problem_scan) capturing->arm();
+          if (item.scan.observations) {
+            const ObservationsInput& s = bag.observation_sets[item.scan.index];
+            record(pipeline.processObservations(s.stamp, s.observations), &s);
+          } else {
+            const ScanInput& s = bag.scans[item.scan.index];
+            record(pipeline.processScan(s.stamp, s.ranges, s.angle_min, s.angle_increment),
+                   nullptr);
+          }
+          break;
+      }
+    }
+  };
+
+  Progress progress(o.progress && ::isatty(STDERR_FILENO), bag.arrivals.size());
+  std::uint64_t invalid_stamps = 0;
+  const auto t_loop = Clock::now();
+  for (std::size_t a = 0; a < bag.arrivals.size(); ++a) {
+    const Arrival& in = bag.arrivals[a];
+    SequencerStatus st = SequencerStatus::kQueued;
+    switch (in.kind) {
+      case Arrival::kOdometry:
+        st = sequencer.addOdometry(bag.odometry[in.index]);
+        break;
+      case Arrival::kScan:
+        st = sequencer.addScan(bag.scans[in.index].stamp, InputRef{false, in.index});
+        break;
+      case Arrival::kObservations:
+        st = sequencer.addScan(bag.observation_sets[in.index].stamp, InputRef{true, in.index});
+        break;
+    }
+    invalid_stamps += st == SequencerStatus::kInvalidStamp;
+    drain();
+    if ((a & 255) == 0) progress.update(a);
+  }
+  sequencer.flush();
+  drain();
+  progress.update(bag.arrivals.size());
+  const double wall_time_s = secondsSince(t_loop);
+  progress.finish();
+
+  const auto t_write = Clock::now();
+  {
+    std::ofstream traj = openOutput(o.out_dir + "/trajectory.csv");
+    traj << "stamp,x,y,yaw,var_x,var_y,var_yaw\n";
+    for (const PoseRow& p : poses) {
+      traj << p.stamp << ',' << p.pose.x() << ',' << p.pose.y() << ',' << p.pose.z() << ','
+           << p.variance.x() << ',' << p.variance.y() << ',' << p.variance.z() << '\n';
+    }
+    std::ofstream assoc = openOutput(o.out_dir + "/associations.csv");
+    assoc << "scan,stamp,obs,range,bearing,diameter,decision,landmark_id"
+          << (bag.has_truth_ids ? ",truth_id" : "") << "\n";
+    for (const AssociationRow& a : rows) {
+      assoc << a.scan << ',' << a.stamp << ',' << a.obs << ',' << a.range << ',' << a.bearing << ','
+            << a.diameter << ',' << toString(a.decision) << ',' << a.landmark;
+      if (bag.has_truth_ids) assoc << ',' << a.truth_id;
+      assoc << '\n';
+    }
+  }
+  if (o.dump_problem_scan && !dumped) {
+    throw std::runtime_error("--dump-problem " + std::to_string(*o.dump_problem_scan) +
+                             ": the run has only " + std::to_string(scans_done) + " scans");
+  }
+
+  // --- landmarks -------------------------------------------------------------------------------
+  const EkfSlam& ekf = pipeline.ekf();
+  {
+    std::ofstream lm = openOutput(o.out_dir + "/landmarks.csv");
+    lm << "id,x,y,var_x,cov_xy,var_y,diameter,times_observed\n";
+    for (std::size_t k = 0; k < ekf.numLandmarks(); ++k) {
+      const LandmarkId id = ekf.landmarkIds()[k];
+      const Eigen::Vector2d m = ekf.landmark(static_cast<int>(k));
+      const Eigen::Matrix2d P = ekf.landmarkCovariance(static_cast<int>(k));
+      const LandmarkInfo& info = pipeline.landmarkInfo(id);
+      lm << id << ',' << m.x() << ',' << m.y() << ',' << P(0, 0) << ',' << P(0, 1) << ',' << P(1, 1)
+         << ',' << info.diameter << ',' << info.times_observed << '\n';
+    }
+  }
+
+  // --- GPS -------------------------------------------------------------------------------------
+  TrajectoryError gps_error;
+  if (!bag.gps.empty()) {
+    gps_error = compareTrajectories(laser_track, bag.gps);
+    // The fixes also in the map frame (inverse alignment), so the picture overlays them.
+    const Eigen::Matrix2d Rt = gps_error.alignment.rotation().transpose();
+    std::ofstream g = openOutput(o.out_dir + "/gps.csv");
+    g << "stamp,x,y,x_map,y_map\n";
+    for (const auto& f : bag.gps) {
+      const Eigen::Vector2d m = Rt * (f.position - gps_error.alignment.translation);
+      g << f.stamp << ',' << f.position.x() << ',' << f.position.y() << ',' << m.x() << ',' << m.y()
+        << '\n';
+    }
+  }
+
+  // --- metrics ---------------------------------------------------------------------------------
+  const PipelineCounters& k = pipeline.counters();
+  nlohmann::json j;
+  j["associator"] = short_name;
+  j["bag"] = o.bag_path;
+  j["params"] = o.params_path;
+  j["scans"] = scans_done;
+  j["odometry_messages"] = bag.odometry.size();
+  j["landmarks"] = ekf.numLandmarks();
+  j["wall_time_s"] = wall_time_s;
+  j["bag_read_s"] = bag_read_s;
+  j["extraction_time_s"] = extraction_s;
+  j["association_time_s"] = association_s;
+  j["update_time_s"] = update_s;
+  j["association_us_median"] = number(quantile(assoc_us, 0.5));
+  j["association_us_p99"] = number(quantile(assoc_us, 0.99));
+  j["update_us_median"] = number(quantile(update_us, 0.5));
+  j["update_us_p99"] = number(quantile(update_us, 0.99));
+  j["sensor_offset"] = {offset.x(), offset.y(), offset.z()};
+  const Eigen::Vector3d final_pose = ekf.pose();
+  j["final_pose"] = {final_pose.x(), final_pose.y(), final_pose.z()};
+  if (!bag.gps.empty()) {
+    j["gps_rmse_m"] = number(gps_error.rmse_aligned);
+    j["gps_rmse_unaligned_m"] = number(gps_error.rmse_unaligned);
+    j["gps_max_error_m"] = number(gps_error.max_aligned);
+    j["gps_median_error_m"] = number(gps_error.median_aligned);
+    j["gps_p95_error_m"] = number(gps_error.p95_aligned);
+    j["gps_points"] = gps_error.points;
+    j["gps_fixes"] = bag.gps.size();
+    j["gps_alignment"] = {{"yaw", gps_error.alignment.yaw},
+                          {"x", gps_error.alignment.translation.x()},
+                          {"y", gps_error.alignment.translation.y()}};
+  }
+  j["counters"] = {{"odometry", k.odometry},
+                   {"scans", k.scans},
+                   {"odometry_gaps", k.odometry_gaps},
+                   {"rejected_odometry", k.rejected_odometry},
+                   {"rejected_updates", k.rejected_updates},
+                   {"invalid_ranges", k.invalid_ranges},
+                   {"scans_before_odometry", k.scans_before_odometry},
+                   {"late_odometry", k.late_odometry},
+                   {"late_scans", k.late_scans},
+                   {"empty_scans", k.empty_scans},
+                   {"invalid_observations", k.invalid_observations},
+                   {"invalid_associations", k.invalid_associations},
+                   {"failed_initialisations", k.failed_initialisations},
+                   {"sequencer_late_odometry", sequencer.counters().late_odometry},
+                   {"sequencer_late_scans", sequencer.counters().late_scans},
+                   {"released_by_latency", sequencer.counters().released_by_latency},
+                   {"invalid_stamps", invalid_stamps},
+                   {"time_jumps", time_jumps}};
+  j["write_s"] = secondsSince(t_write);  // CSV files and this file, not the picture
+  const std::string text = j.dump(2) + "\n";
+  openOutput(o.out_dir + "/metrics.json") << text;
+
+  // Nothing is dropped silently: every input that needed handling is reported.
+  const std::uint64_t late = k.late_odometry + k.late_scans;
+  if (k.rejected_odometry || k.rejected_updates || late || k.odometry_gaps || invalid_stamps ||
+      k.invalid_observations || k.invalid_associations || k.failed_initialisations) {
+    log << "warning: " << k.rejected_odometry << " odometry messages rejected (non-finite), "
+        << invalid_stamps << " messages with invalid stamps dropped, " << k.late_odometry
+        << " late odometry messages skipped, " << k.late_scans << " late scans, " << k.odometry_gaps
+        << " odometry gaps, " << k.rejected_updates << " EKF updates refused, "
+        << k.invalid_observations << " invalid observations, " << k.invalid_associations
+        << " associator results fixed, " << k.failed_initialisations
+        << " failed landmark initialisations (metrics.json: counters)\n";
+  }
+
+  // --- picture ---------------------------------------------------------------------------------
+  if (o.plot) {
+    const std::string cmd = "/usr/bin/python3 " + shellQuote(plotScript()) + " " +
+                            shellQuote(o.out_dir) + " > /dev/null";
+    const int rc = std::system(cmd.c_str());
+    if (rc != 0) {
+      log << "warning: map.png not written (" << plotScript() << " failed"
+          << (WIFEXITED(rc) && WEXITSTATUS(rc) == 3 ? ": python3-matplotlib is missing" : "")
+          << ")\n";
+    }
+  }
+
+  OfflineSummary s;
+  s.associator = short_name;
+  s.scans = scans_done;
+  s.odometry = bag.odometry.size();
+  s.landmarks = ekf.numLandmarks();
+  s.wall_time_s = wall_time_s;
+  s.gps_rmse_m = bag.gps.empty() ? -1.0 : gps_error.rmse_aligned;
+  s.metrics_json = text;
+  return s;
+}
+
+// --- command line --------------------------------------------------------------------------------
+
+void printOfflineUsage(std::ostream& out, const std::string& program) {
+  out << "usage: " << program
+      << " --bag FILE --out DIR [--params YAML] [--associator NAME] [--dump-problem SCAN]\n"
+         "       [--no-plot] [--no-progress] [--scan-topic T] [--odom-topic T]\n"
+         "       [--observations-topic T] [--gps-topic T] [--tf-static-topic T] [--base-frame F]\n"
+         "Replays a bag through the SLAM pipeline (no roscore) and writes trajectory.csv,\n"
+         "landmarks.csv, associations.csv, gps.csv, metrics.json and map.png to DIR.\n"
+         "  YAML: pipeline parameters at the top level, each associator's under its name\n"
+         "        (config/victoria_park.yaml)\n"
+         "  NAME: e.g. DJNN or ekf_slam/DJNN (default: the YAML's 'associator', else "
+      << AssociatorLoader::kDefault
+      << ")\n"
+         "  SCAN: 0-based scan whose association problem goes to DIR/problem_SCAN.json\n"
+         "        (replay it with replay_association)\n";
+}
+
+bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions* o, bool* help,
+                           std::string* error) {
+  *help = false;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "-h" || a == "--help") {
+      *help = true;
+      return true;
+    }
+    if (a == "--no-plot") {
+      o->plot = false;
+      continue;
+    }
+    if (a == "--no-progress") {
+      o->progress = false;
+      continue;
+    }
+    std::string* target = a == "--bag"                  ? &o->bag_path
+                          : a == "--out"                ? &o->out_dir
+                          : a == "--params"             ? &o->params_path
+                          : a == "--associator"         ? &o->associator
+                          : a == "--scan-topic"         ? &o->scan_topic
+                          : a == "--odom-topic"         ? &o->odom_topic
+                          : a == "--observations-topic" ? &o->observations_topic
+                          : a == "--gps-topic"          ? &o->gps_topic
+                          : a == "--tf-static-topic"    ? &o->tf_static_topic
+                          : a == "--base-frame"         ? &o->base_frame
+                                                        : nullptr;
+    const bool dump = a == "--dump-problem";
+    if (target == nullptr && !dump) {
+      *error = "unknown argument '" + a + "'";
+      return false;
+    }
+    if (i + 1 >= args.size()) {
+      *error = a + " needs a value";
+      return false;
+    }
+    const std::string& v = args[++i];
+    if (dump) {
+      char* end = nullptr;
+      errno = 0;
+      const unsigned long scan = std::strtoul(v.c_str(), &end, 10);
+      if (v.empty() || *end != '\0' || v[0] == '-' || errno != 0 ||
+          scan > std::numeric_limits<std::uint32_t>::max()) {
+        *error = "--dump-problem needs a scan index (0, 1, ...), got '" + v + "'";
+        return false;
+      }
+      o->dump_problem_scan = static_cast<std::uint32_t>(scan);
+    } else {
+      *target = v;
+    }
+  }
+  if (o->bag_path.empty() || o->out_dir.empty()) {
+    *error = "--bag and --out are required";
+    return false;
+  }
+  return true;
+}
+
+int offlineMain(int argc, char** argv) {
+  const std::string program = "ekf_slam_offline";
+  OfflineOptions options;
+  bool help = false;
+  std::string error;
+  if (!parseOfflineArguments(std::vector<std::string>(argv + 1, argv + argc), &options, &help,
+                             &error)) {
+    std::cerr << program << ": " << error << "\n";
+    printOfflineUsage(std::cerr, program);
+    return 2;
+  }
+  if (help) {
+    printOfflineUsage(std::cout, program);
+    return 0;
+  }
+  try {
+    const OfflineSummary s = runOffline(options, std::cerr);
+    std::cout << s.metrics_json;
+    std::cout << "wrote " << options.out_dir
+              << "/{trajectory,landmarks,associations}.csv, metrics.json"
+              << (options.plot ? ", map.png" : "") << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << program << ": " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace ekf_slam

@@ -1,0 +1,353 @@
+// The offline runner on a short Victoria Park window (converted here), plus its error paths.
+#include <stdlib.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <sensor_msgs/LaserScan.h>
+#include <nlohmann/json.hpp>
+
+#include "ekf_slam/data/victoria_park.h"
+#include "ekf_slam/ros/associator_loader.h"
+#include "ekf_slam/ros/offline_runner.h"
+#include "ekf_slam/ros/victoria_park_bag.h"
+#include "ekf_slam/tools/association_problem.h"
+#include "ekf_slam/tools/yaml_parameter_source.h"
+
+namespace fs = std::filesystem;
+namespace vp = ekf_slam::victoria_park;
+
+namespace ekf_slam {
+namespace {
+
+const std::string kConfig = std::string(EKF_SLAM_SOURCE_DIR) + "/config/victoria_park.yaml";
+
+fs::path tempDir() {
+  std::string templ = (fs::temp_directory_path() / "ekf_slam_offline_XXXXXX").string();
+  if (mkdtemp(templ.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+  return fs::path(templ);
+}
+
+std::vector<std::string> readLines(const fs::path& path) {
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> out;
+  std::stringstream ss(line);
+  for (std::string f; std::getline(ss, f, ',');) out.push_back(f);
+  return out;
+}
+
+// One short window of the data set, converted once for every test of the suite.
+class OfflineRunnerTest : public testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    const std::string data = vp::defaultDataDir();
+    if (!fs::exists(fs::path(data) / "aa3_dr.mat")) return;
+    dir_ = new fs::path(tempDir());
+    vp::BagOptions options;
+    options.data_dir = data;
+    options.out_path = (*dir_ / "window.bag").string();
+    options.start_s = 20.0;  // the start of the run, 60 s: some 300 scans, loops of trees
+    options.end_s = 80.0;
+    counts_ = vp::writeVictoriaParkBag(options);
+  }
+  static void TearDownTestSuite() {
+    if (dir_) fs::remove_all(*dir_);
+    delete dir_;
+    dir_ = nullptr;
+  }
+  void SetUp() override {
+    if (dir_ == nullptr) {
+      GTEST_SKIP() << "Victoria Park data not found in " << vp::defaultDataDir()
+                   << " (set VP_DATA)";
+    }
+  }
+  OfflineOptions options(const std::string& out) const {
+    OfflineOptions o;
+    o.bag_path = (*dir_ / "window.bag").string();
+    o.out_dir = (*dir_ / out).string();
+    o.params_path = kConfig;
+    o.progress = false;
+    o.plot = false;
+    return o;
+  }
+
+  static fs::path* dir_;
+  static vp::BagCounts counts_;
+};
+fs::path* OfflineRunnerTest::dir_ = nullptr;
+vp::BagCounts OfflineRunnerTest::counts_;
+
+TEST_F(OfflineRunnerTest, WritesEveryFileWithItsHeaderAndRows) {
+  OfflineOptions o = options("run");
+  o.plot = true;
+  std::ostringstream log;
+  const OfflineSummary s = runOffline(o, log);
+  const fs::path out(o.out_dir);
+
+  const auto traj = readLines(out / "trajectory.csv");
+  ASSERT_FALSE(traj.empty());
+  EXPECT_EQ(traj[0], "stamp,x,y,yaw,var_x,var_y,var_yaw");
+  EXPECT_EQ(traj.size() - 1, counts_.scans);  // one row per scan
+  EXPECT_EQ(s.scans, counts_.scans);
+  double last_stamp = -1.0;
+  for (std::size_t i = 1; i < traj.size(); ++i) {
+    const auto f = split(traj[i]);
+    ASSERT_EQ(f.size(), 7u) << traj[i];
+    EXPECT_GT(std::stod(f[0]), last_stamp);
+    last_stamp = std::stod(f[0]);
+    for (const auto& v : f) EXPECT_TRUE(std::isfinite(std::stod(v))) << traj[i];
+  }
+
+  const auto lms = readLines(out / "landmarks.csv");
+  ASSERT_FALSE(lms.empty());
+  EXPECT_EQ(lms[0], "id,x,y,var_x,cov_xy,var_y,diameter,times_observed");
+  EXPECT_EQ(lms.size() - 1, s.landmarks);
+  EXPECT_GT(s.landmarks, 5u);
+  std::set<std::string> ids;
+  for (std::size_t i = 1; i < lms.size(); ++i) {
+    const auto f = split(lms[i]);
+    ASSERT_EQ(f.size(), 8u) << lms[i];
+    EXPECT_TRUE(ids.insert(f[0]).second) << "duplicate id " << f[0];
+    EXPECT_GT(std::stod(f[3]), 0.0);  // var_x
+  }
+
+  const auto assoc = readLines(out / "associations.csv");
+  ASSERT_FALSE(assoc.empty());
+  EXPECT_EQ(assoc[0], "scan,stamp,obs,range,bearing,diameter,decision,landmark_id");
+  std::size_t paired = 0, created = 0;
+  std::set<std::string> created_ids;  // landmarks initialised so far
+  for (std::size_t i = 1; i < assoc.size(); ++i) {
+    const auto f = split(assoc[i]);
+    ASSERT_EQ(f.size(), 8u) << assoc[i];
+    EXPECT_LT(std::stoul(f[0]), s.scans);
+    const std::string& d = f[6];
+    EXPECT_TRUE(d == "paired" || d == "new" || d == "tentative" || d == "rejected") << d;
+    paired += d == "paired";
+    created += d == "new";
+    if (d == "new") {
+      EXPECT_TRUE(created_ids.insert(f[7]).second) << "id created twice: " << assoc[i];
+    } else if (d == "paired") {
+      EXPECT_TRUE(created_ids.count(f[7])) << "paired with an unknown id: " << assoc[i];
+    } else {
+      EXPECT_EQ(f[7], "-1");
+    }
+  }
+  EXPECT_GT(paired, created);  // the map is re-observed, not rebuilt every scan
+  EXPECT_GE(created, s.landmarks);
+  for (const auto& id : ids) EXPECT_TRUE(created_ids.count(id)) << id;  // map ids were created
+
+  const auto gps = readLines(out / "gps.csv");
+  ASSERT_FALSE(gps.empty());
+  EXPECT_EQ(gps[0], "stamp,x,y,x_map,y_map");
+  EXPECT_EQ(gps.size() - 1, counts_.gps);
+
+  std::ifstream metrics_file(out / "metrics.json");
+  const nlohmann::json m = nlohmann::json::parse(metrics_file);
+  for (const char* key :
+       {"associator", "scans", "odometry_messages", "landmarks", "wall_time_s", "bag_read_s",
+        "association_time_s", "association_us_median", "association_us_p99", "update_us_median",
+        "gps_rmse_m", "gps_rmse_unaligned_m", "gps_points", "counters"}) {
+    EXPECT_TRUE(m.contains(key)) << key;
+  }
+  EXPECT_EQ(m["associator"], "DJNN");
+  EXPECT_EQ(m["scans"].get<std::size_t>(), counts_.scans);
+  EXPECT_EQ(m["odometry_messages"].get<std::size_t>(), counts_.odometry);
+  EXPECT_EQ(m["landmarks"].get<std::size_t>(), s.landmarks);
+  EXPECT_GT(m["gps_points"].get<std::size_t>(), 10u);
+  // A 60 s drive with a consistent map stays within a few metres of GPS.
+  EXPECT_LT(m["gps_rmse_m"].get<double>(), 5.0);
+  EXPECT_EQ(m["counters"]["rejected_updates"].get<int>(), 0);
+  EXPECT_NEAR(m["sensor_offset"][0].get<double>(), vp::kLaserX, 1e-9);
+  EXPECT_NEAR(m["sensor_offset"][1].get<double>(), vp::kLaserY, 1e-9);
+
+  // The picture, unless matplotlib is missing (then a warning says so).
+  if (log.str().find("matplotlib") == std::string::npos) {
+    EXPECT_TRUE(fs::exists(out / "map.png")) << log.str();
+  }
+}
+
+TEST_F(OfflineRunnerTest, DumpedProblemIsReadBackByReplay) {
+  OfflineOptions o = options("dump");
+  o.dump_problem_scan = 100;
+  std::ostringstream log;
+  runOffline(o, log);
+  const fs::path file = fs::path(o.out_dir) / "problem_100.json";
+  ASSERT_TRUE(fs::exists(file));
+  const AssociationProblem p = readAssociationProblem(file.string());
+  EXPECT_GT(p.numLandmarks(), 0u);
+  EXPECT_NEAR(p.sensor_offset.x(), vp::kLaserX, 1e-12);
+
+  // Its observations are scan 100's rows of associations.csv.
+  std::size_t rows = 0;
+  for (const auto& line : readLines(fs::path(o.out_dir) / "associations.csv")) {
+    if (line.rfind("100,", 0) == 0) ++rows;
+  }
+  EXPECT_EQ(p.observations.size(), rows);
+
+  // The replay command reads it (same loader, same format).
+  const std::string cmd = std::string(REPLAY_ASSOCIATION_BIN) + " --problem " + file.string() +
+                          " --associator DJNN --params " + kConfig + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string output;
+  char buf[256];
+  while (fgets(buf, sizeof buf, pipe)) output += buf;
+  const int status = pclose(pipe);
+  EXPECT_EQ(status, 0) << output;
+  EXPECT_NE(output.find("joint_mahalanobis"), std::string::npos) << output;
+  std::size_t lines = 0;
+  for (const char c : output) lines += c == '\n';
+  EXPECT_EQ(lines, p.observations.size() + 1) << output;
+}
+
+TEST_F(OfflineRunnerTest, DumpBeyondTheRunFails) {
+  OfflineOptions o = options("dump_late");
+  o.dump_problem_scan = 1000000;
+  std::ostringstream log;
+  try {
+    runOffline(o, log);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("--dump-problem"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(OfflineRunnerTest, UnknownAssociatorListsTheAvailableNames) {
+  OfflineOptions o = options("unknown");
+  o.associator = "DJJN";
+  std::ostringstream log;
+  try {
+    runOffline(o, log);
+    FAIL() << "expected UnknownAssociatorError";
+  } catch (const UnknownAssociatorError& e) {
+    const std::string what = e.what();
+    for (const char* name : {"ekf_slam/DJNN", "ekf_slam/JCBB", "ekf_slam/NN"}) {
+      EXPECT_NE(what.find(name), std::string::npos) << what;
+    }
+  }
+}
+
+TEST_F(OfflineRunnerTest, EveryAssociatorRunsWithTheSameConfig) {
+  AssociatorLoader loader;
+  for (const std::string& name : loader.available()) {
+    OfflineOptions o = options("every_" + name.substr(name.rfind('/') + 1));
+    o.associator = name;
+    std::ostringstream log;
+    const OfflineSummary s = runOffline(o, log);
+    EXPECT_EQ(s.scans, counts_.scans) << name;
+    EXPECT_GT(s.landmarks, 0u) << name;
+  }
+}
+
+// --- without data
+// ---------------------------------------------------------------------------------
+
+TEST(OfflineRunner, MissingStaticTransformIsAClearError) {
+  const fs::path dir = tempDir();
+  const std::string path = (dir / "no_tf.bag").string();
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    for (int i = 0; i < 10; ++i) {
+      nav_msgs::Odometry odom;
+      odom.header.stamp = ros::Time(1.0 + 0.1 * i);
+      odom.pose.pose.orientation.w = 1.0;
+      bag.write("/odom", odom.header.stamp, odom);
+    }
+    sensor_msgs::LaserScan scan;
+    scan.header.stamp = ros::Time(1.5);
+    scan.header.frame_id = "laser";
+    scan.angle_increment = 0.01;
+    scan.ranges.assign(100, 10.0f);
+    bag.write("/scan", scan.header.stamp, scan);
+  }
+  OfflineOptions o;
+  o.bag_path = path;
+  o.out_dir = (dir / "out").string();
+  o.plot = false;
+  o.progress = false;
+  std::ostringstream log;
+  try {
+    runOffline(o, log);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("base_link -> laser"), std::string::npos) << what;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(OfflineRunner, MissingBagIsAClearError) {
+  OfflineOptions o;
+  o.bag_path = "/nonexistent/x.bag";
+  o.out_dir = (fs::temp_directory_path() / "ekf_slam_offline_never").string();
+  o.plot = false;
+  std::ostringstream log;
+  try {
+    runOffline(o, log);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/x.bag"), std::string::npos) << e.what();
+  }
+  fs::remove_all(o.out_dir);
+}
+
+TEST(OfflineRunner, ParsesArguments) {
+  OfflineOptions o;
+  bool help = false;
+  std::string error;
+  ASSERT_TRUE(parseOfflineArguments(
+      {"--bag", "a.bag", "--out", "d", "--associator", "JCBB", "--dump-problem", "12", "--no-plot"},
+      &o, &help, &error))
+      << error;
+  EXPECT_EQ(o.bag_path, "a.bag");
+  EXPECT_EQ(o.associator, "JCBB");
+  EXPECT_EQ(*o.dump_problem_scan, 12u);
+  EXPECT_FALSE(o.plot);
+  OfflineOptions fresh;
+  EXPECT_FALSE(parseOfflineArguments({"--bag", "a.bag"}, &fresh, &help, &error));  // no --out
+  EXPECT_NE(error.find("--out"), std::string::npos);
+  EXPECT_FALSE(parseOfflineArguments({"--bag", "a", "--out", "d", "--dump-problem", "-1"}, &fresh,
+                                     &help, &error));
+  EXPECT_NE(error.find("--dump-problem"), std::string::npos);
+  EXPECT_FALSE(
+      parseOfflineArguments({"--bag", "a", "--out", "d", "--frobnicate"}, &fresh, &help, &error));
+  EXPECT_NE(error.find("--frobnicate"), std::string::npos);
+}
+
+// The runner reads the associator's parameters from its section alone, as the node reads ~DJNN.
+TEST(YamlParameterSource, SectionOnlyScopeIgnoresTheTopLevel) {
+  const std::string text = "individual_probability: 0.9\nDJNN:\n  sensor_range: 25\n";
+  using Scope = YamlParameterSource::Scope;
+  const auto only = YamlParameterSource::fromString(text, "DJNN", "t", Scope::kSectionOnly);
+  double v = 0.0;
+  EXPECT_FALSE(only.get("individual_probability", &v));
+  ASSERT_TRUE(only.get("sensor_range", &v));
+  EXPECT_EQ(v, 25.0);
+  EXPECT_EQ(only.qualify("sensor_range"), "t:DJNN/sensor_range");
+  EXPECT_FALSE(YamlParameterSource::fromString(text, "JCBB", "t", Scope::kSectionOnly)
+                   .get("individual_probability", &v));
+  // The default scope is unchanged: both levels.
+  EXPECT_TRUE(YamlParameterSource::fromString(text, "DJNN").get("individual_probability", &v));
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

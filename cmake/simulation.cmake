@@ -1,0 +1,13 @@
+# Simulated worlds with ground truth and the association / pose scorer (ROS-free core):
+# docs/simulation.md.
+target_sources(ekf_slam_core PRIVATE
+  ${PROJECT_SOURCE_DIR}/src/core/simulator.cpp
+  ${PROJECT_SOURCE_DIR}/src/core/association_metrics.cpp)
+
+if(CATKIN_ENABLE_TESTING)
+  foreach(t test_simulator test_association_metrics)
+    catkin_add_gtest(${t} ${PROJECT_SOURCE_DIR}/test/${t}.cpp)
+    target_include_directories(${t} PRIVATE ${PROJECT_SOURCE_DIR}/test)
+    target_link_libraries(${t} ekf_slam_core)
+  endforeach()
+endif()

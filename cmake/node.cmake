@@ -38,7 +38,7 @@ if(CATKIN_ENABLE_TESTING)
   # The node on a Victoria Park window, once per associator (the same launch file, the plugin
   # given as a launch arg; DJNN is the default run), then bad input and an unknown plugin name.
   add_rostest_gtest(test_node test/node.test test/test_node.cpp)
-  target_link_libraries(test_node ekf_slam_node)
+  target_link_libraries(test_node ekf_slam_node ekf_slam_offline_runner)
   add_dependencies(test_node ekf_slam_node_main ekf_slam_association_plugins)
   target_compile_definitions(test_node PRIVATE
     EKF_SLAM_NODE_BIN="$<TARGET_FILE:ekf_slam_node_main>")

@@ -20,6 +20,7 @@
 #include <unistd.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -36,6 +37,7 @@
 #include "ekf_slam/LoadMap.h"
 #include "ekf_slam/SaveMap.h"
 #include "ekf_slam/data/victoria_park.h"
+#include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
 
 namespace vp = ekf_slam::victoria_park;
@@ -106,6 +108,10 @@ struct NodeOutputs {
           ++poses;
           all_poses_finite = all_poses_finite && finite(*m);
           last_pose = *m;
+          const auto& q = m->pose.pose.orientation;
+          trajectory.push_back(
+              {m->header.stamp.toSec(), m->pose.pose.position.x, m->pose.pose.position.y,
+               std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))});
         });
     path = nh.subscribe<nav_msgs::Path>("/ekf_slam/path", 10,
                                         [this](const nav_msgs::Path::ConstPtr& m) {
@@ -156,6 +162,7 @@ struct NodeOutputs {
   bool all_poses_finite = true, all_markers_finite = true, observations_finite = true;
   std::set<std::string> associators_seen;
   geometry_msgs::PoseWithCovarianceStamped last_pose;
+  std::vector<std::array<double, 4>> trajectory;  ///< stamp, x, y, yaw of every ~pose
   nav_msgs::Path last_path;
   ekf_slam::LandmarkArray last_map;
   ekf_slam::AssociationStats last_stats;
@@ -225,7 +232,39 @@ TEST(VictoriaPark, NodePublishesEverything) {
       ADD_FAILURE() << "no map -> odom: " << e.what();
     }
   }
+
+  // The offline runner on the same bag, with the same parameters, gives the same trajectory:
+  // both shells drive one pipeline through one sequencer.
+  ekf_slam::OfflineOptions offline;
+  offline.bag_path = options.out_path;
+  offline.out_dir = (tmp / "offline").string();
+  offline.params_path = std::string(EKF_SLAM_SOURCE_DIR) + "/config/victoria_park.yaml";
+  offline.associator = associator;
+  offline.plot = false;
+  offline.progress = false;
+  std::ostringstream offline_log;
+  ASSERT_NO_THROW(ekf_slam::runOffline(offline, offline_log)) << offline_log.str();
+  std::ifstream csv(offline.out_dir + "/trajectory.csv");
+  std::string line;
+  std::getline(csv, line);  // header
+  std::vector<std::array<double, 4>> offline_trajectory;
+  while (std::getline(csv, line)) {
+    std::array<double, 4> row{};
+    char comma;
+    std::istringstream in(line);
+    in >> row[0] >> comma >> row[1] >> comma >> row[2] >> comma >> row[3];
+    offline_trajectory.push_back(row);
+  }
   fs::remove_all(tmp);
+  ASSERT_EQ(out.trajectory.size(), offline_trajectory.size());
+  for (std::size_t k = 0; k < offline_trajectory.size(); ++k) {
+    EXPECT_NEAR(out.trajectory[k][0], offline_trajectory[k][0], 1e-6) << "stamp of scan " << k;
+    EXPECT_NEAR(out.trajectory[k][1], offline_trajectory[k][1], 1e-6) << "x of scan " << k;
+    EXPECT_NEAR(out.trajectory[k][2], offline_trajectory[k][2], 1e-6) << "y of scan " << k;
+    EXPECT_NEAR(std::remainder(out.trajectory[k][3] - offline_trajectory[k][3], 2 * M_PI), 0.0,
+                1e-6)
+        << "yaw of scan " << k;
+  }
 
   // Every scan of the window is processed and reported, by the plugin asked for.
   EXPECT_EQ(out.associations, static_cast<int>(counts.scans));

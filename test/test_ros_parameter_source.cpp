@@ -76,8 +76,9 @@ TEST(RosParameterSource, OutOfRangeValueNamesTheParameter) {
     djnn.configure(src);
     FAIL() << "DJNN accepted individual_probability = 1.5";
   } catch (const ParameterError& e) {
-    EXPECT_NE(std::string(e.what()).find(ros::this_node::getName() + "/DJNN2/individual_probability"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(e.what()).find(ros::this_node::getName() + "/DJNN2/individual_probability"),
+        std::string::npos)
         << e.what();
   }
 }

@@ -24,7 +24,7 @@ namespace ekf_slam {
 
 /// One observation of the current scan.
 struct Observation {
-  Eigen::Vector2d z = Eigen::Vector2d::Zero();  ///< (range, bearing) in the sensor frame
+  Eigen::Vector2d z = Eigen::Vector2d::Zero();      ///< (range, bearing) in the sensor frame
   Eigen::Matrix2d R = Eigen::Matrix2d::Identity();  ///< measurement noise covariance
   /// Optional descriptor, e.g. the trunk diameter [m]; NaN when unknown.
   double descriptor = std::numeric_limits<double>::quiet_NaN();
@@ -74,16 +74,15 @@ class AssociationContext {
   };
   /// Individual compatibility of observation i with landmark j.
   struct Individual {
-    Eigen::Vector2d v;       ///< innovation z_i - h_j (bearing wrapped)
-    Eigen::Matrix2d S;       ///< H P H^T + R_i
+    Eigen::Vector2d v;  ///< innovation z_i - h_j (bearing wrapped)
+    Eigen::Matrix2d S;  ///< H P H^T + R_i
     Eigen::Matrix2d S_inv;
-    double mahalanobis;      ///< v^T S^-1 v  (M_ij)
-    double log_det_S;        ///< ln |S_ij|
+    double mahalanobis;  ///< v^T S^-1 v  (M_ij)
+    double log_det_S;    ///< ln |S_ij|
   };
 
-  AssociationContext(const EkfSlam& ekf, const RangeBearingModel& model,
-                     const LandmarkIndex& index, const std::vector<Observation>& observations,
-                     double stamp);
+  AssociationContext(const EkfSlam& ekf, const RangeBearingModel& model, const LandmarkIndex& index,
+                     const std::vector<Observation>& observations, double stamp);
 
   const EkfSlam& ekf() const { return ekf_; }
   const RangeBearingModel& model() const { return model_; }
@@ -159,6 +158,5 @@ class DataAssociation {
   /// Features tracked outside the map, when the algorithm keeps any.
   virtual std::vector<TentativeFeature> tentativeFeatures() const { return {}; }
 };
-
 
 }  // namespace ekf_slam

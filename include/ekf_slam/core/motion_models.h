@@ -57,10 +57,10 @@ class AckermannModel {
 
 /// Unicycle driven by a twist u = (v, w): exact arc integration (straight line when w ~ 0).
 struct TwistParams {
-  double sigma_v = 0.1;       ///< std dev of v [m/s] ...
-  double sigma_v_per_v = 0.05;  ///< ... plus this fraction of |v|
-  double sigma_w = 0.02;      ///< std dev of w [rad/s] ...
-  double sigma_w_per_v = 0.01;  ///< ... plus this many rad/s per m/s of |v|
+  double sigma_v = 0.1;                                ///< std dev of v [m/s] ...
+  double sigma_v_per_v = 0.05;                         ///< ... plus this fraction of |v|
+  double sigma_w = 0.02;                               ///< std dev of w [rad/s] ...
+  double sigma_w_per_v = 0.01;                         ///< ... plus this many rad/s per m/s of |v|
   Eigen::Matrix3d additive = Eigen::Matrix3d::Zero();  ///< extra pose noise per second
 };
 

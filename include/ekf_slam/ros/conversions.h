@@ -5,12 +5,12 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/Transform.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/time.h>
 #include <sensor_msgs/LaserScan.h>
+#include <Eigen/Core>
 
 #include "ekf_slam/AssociationStats.h"
 #include "ekf_slam/LandmarkArray.h"

@@ -146,6 +146,18 @@ inline void unambiguousScene(Scene* s, std::mt19937* rng = nullptr) {
   s->observeAll(30.0, rng);
 }
 
+/// One landmark observed, plus two clutter points: observation 1 far from every landmark (a new
+/// landmark), observation 2 at 0.8 m from landmark 0 (outside the pairing gate but too close to
+/// be new: rejected).
+inline void clutterScene(Scene* s) {
+  s->pose_cov = poseCov(0.1, 0.1, 0.01);
+  s->addLandmark(Eigen::Vector2d(10, 0), diag2(0.1, 0.1));
+  s->build();
+  s->observeLandmark(0);
+  s->observePoint(Eigen::Vector2d(3, 8));
+  s->observePoint(Eigen::Vector2d(10, 0.8));
+}
+
 /// Three landmarks behind the robot; the bearing of landmark 0 is observed just past -pi and
 /// predicted just below +pi (the robot turned by -0.02 rad more than the filter believes).
 inline void behindScene(Scene* s) {

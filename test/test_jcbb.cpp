@@ -142,12 +142,7 @@ TEST(JCBB, ObservationBetweenTwoLandmarksTieRule) {
 TEST(JCBB, ClutterEmptyMapEmptyScanBehind) {
   {
     Scene s;
-    s.pose_cov = assoc_test::poseCov(0.1, 0.1, 0.01);
-    s.addLandmark(Eigen::Vector2d(10, 0), assoc_test::diag2(0.1, 0.1));
-    s.build();
-    s.observeLandmark(0);
-    s.observePoint(Eigen::Vector2d(3, 8));
-    s.observePoint(Eigen::Vector2d(10, 0.8));
+    assoc_test::clutterScene(&s);
     const AssociationResult r = makeJcbb().associate(s.context());
     EXPECT_EQ(r.landmark[0], Scene::idOf(0));
     EXPECT_EQ(r.decision[1], Decision::kNew);

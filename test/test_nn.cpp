@@ -101,12 +101,7 @@ TEST(NN, ObservationBetweenTwoLandmarksUsesTheLikelihoodScore) {
 
 TEST(NN, ClutterIsNewFarAwayAndRejectedNearALandmark) {
   Scene s;
-  s.pose_cov = assoc_test::poseCov(0.1, 0.1, 0.01);
-  s.addLandmark(Eigen::Vector2d(10, 0), assoc_test::diag2(0.1, 0.1));
-  s.build();
-  s.observeLandmark(0);
-  s.observePoint(Eigen::Vector2d(3, 8));     // far from every landmark: a new one
-  s.observePoint(Eigen::Vector2d(10, 0.8));  // outside the pairing gate but too close to be new
+  assoc_test::clutterScene(&s);
   const AssociationContext ctx = s.context();
   const double m2 = ctx.individual(2, 0).mahalanobis;
   ASSERT_GT(m2, 5.99);

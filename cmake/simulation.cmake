@@ -2,10 +2,11 @@
 # docs/simulation.md.
 target_sources(ekf_slam_core PRIVATE
   ${PROJECT_SOURCE_DIR}/src/core/simulator.cpp
-  ${PROJECT_SOURCE_DIR}/src/core/association_metrics.cpp)
+  ${PROJECT_SOURCE_DIR}/src/core/association_metrics.cpp
+  ${PROJECT_SOURCE_DIR}/src/core/simulated_run.cpp)
 
 if(CATKIN_ENABLE_TESTING)
-  foreach(t test_simulator test_association_metrics)
+  foreach(t test_simulator test_association_metrics test_simulated_run)
     catkin_add_gtest(${t} ${PROJECT_SOURCE_DIR}/test/${t}.cpp)
     target_include_directories(${t} PRIVATE ${PROJECT_SOURCE_DIR}/test)
     target_link_libraries(${t} ekf_slam_core)

@@ -1,4 +1,5 @@
-// Simulated worlds: specs, determinism, sensor window, noise statistics, end to end with DJNN.
+// Simulated worlds: specs, determinism, sensor window, noise statistics (end to end:
+// test_simulated_run.cpp).
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
@@ -11,7 +12,6 @@
 #include <vector>
 
 #include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/association/djnn.h"
 #include "ekf_slam/core/association_metrics.h"
 #include "ekf_slam/core/data_association.h"
 #include "ekf_slam/core/ekf_slam.h"
@@ -413,75 +413,6 @@ TEST(Simulation, OdometryPoseIntegratesTheNoisyTwist) {
 }
 
 // --- end to end through the core (what the pipeline will do) -------------------------------------
-
-struct EndToEnd {
-  AssociationCounts counts;
-  MapScore map;
-  double position_rmse = 0.0;
-};
-
-EndToEnd runDjnn(const World& w, std::uint64_t seed) {
-  DJNN djnn;
-  MapParameterSource params;
-  params.set("sensor_range", std::to_string(w.sensor.max_range));
-  params.set("field_of_view", std::to_string(w.sensor.field_of_view));
-  djnn.configure(params);
-
-  EkfSlam ekf;
-  ekf.reset(w.start_pose, Eigen::Matrix3d::Zero());
-  LandmarkIndex index(10.0);
-  const RangeBearingModel model(w.sensor.offset);
-  const TwistModel motion(twistNoiseFor(w));
-  AssociationScorer scorer;
-  PoseErrorStats pose;
-
-  Simulation sim(w, seed);
-  OdometrySample last;
-  bool have_odom = false;
-  for (auto e = sim.next(); e != Simulation::Event::kEnd; e = sim.next()) {
-    if (e == Simulation::Event::kOdometry) {
-      const OdometrySample& o = sim.odometry();
-      if (have_odom) ekf.predict(motion.step(ekf.pose(), last.twist, o.stamp - last.stamp));
-      last = o;
-      have_odom = true;
-      continue;
-    }
-    const ObservationSet& set = sim.observations();
-    const std::vector<Observation> obs = set.toObservations();
-    index.sync(ekf);
-    AssociationContext ctx(ekf, model, index, obs, set.stamp);
-    AssociationResult result = djnn.associate(ctx);
-    std::vector<Pairing> pairings;
-    for (std::size_t i = 0; i < obs.size(); ++i)
-      if (result.decision[i] == Decision::kPaired)
-        pairings.push_back({result.landmark[i], obs[i].z, obs[i].R});
-    if (!pairings.empty()) ekf.update(pairings, model);
-    for (std::size_t i = 0; i < obs.size(); ++i) {
-      if (result.decision[i] != Decision::kNew) continue;
-      result.landmark[i] = ekf.addLandmark(obs[i].z, obs[i].R, model);
-      if (result.landmark[i] != kNoLandmark)
-        djnn.landmarkAdded(static_cast<int>(i), result.landmark[i]);
-    }
-    for (LandmarkId id : result.remove) ekf.removeLandmark(id);
-    scorer.addScan(set.truthIds(), result, result.remove);
-    pose.add(ekf.pose(), ekf.poseCovariance(), set.true_pose);
-  }
-  return {scorer.counts(), scorer.mapScore(), pose.positionRmse()};
-}
-
-TEST(EndToEnd, TinyWorldWithDjnn) {
-  const World w = makeWorld("tiny");
-  const EndToEnd r = runDjnn(w, 1);
-  std::printf(
-      "tiny/DJNN: TP %llu FP %llu FN %llu TN %llu accuracy %.4f, map %zu (%zu true, %zu "
-      "spurious), position RMSE %.3f m\n",
-      (unsigned long long)r.counts.tp, (unsigned long long)r.counts.fp,
-      (unsigned long long)r.counts.fn, (unsigned long long)r.counts.tn, r.counts.accuracy(),
-      r.map.landmarks, r.map.true_landmarks_mapped, r.map.spurious, r.position_rmse);
-  EXPECT_GT(r.counts.accuracy(), 0.95);
-  EXPECT_GE(r.map.true_landmarks_mapped, 7u);
-  EXPECT_LT(r.position_rmse, 1.0);
-}
 
 }  // namespace
 }  // namespace sim

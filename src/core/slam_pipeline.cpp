@@ -221,6 +221,7 @@ ScanReport SlamPipeline::processObservations(double stamp, std::vector<Observati
                                                     config_.sigma_bearing * config_.sigma_bearing)
                                         .asDiagonal();
   std::size_t kept = 0;
+  report.input_index.reserve(observations.size());
   for (std::size_t i = 0; i < observations.size(); ++i) {
     Observation o = observations[i];
     if (o.R.isZero(0.0)) o.R = R_default;
@@ -231,6 +232,7 @@ ScanReport SlamPipeline::processObservations(double stamp, std::vector<Observati
       continue;
     }
     observations[kept++] = o;
+    report.input_index.push_back(static_cast<std::uint32_t>(i));
   }
   observations.resize(kept);
   counters_.invalid_observations += report.invalid_observations;

@@ -1,6 +1,5 @@
 #include "ekf_slam/ros/offline_runner.h"
 
-#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -39,6 +38,7 @@
 #include "ekf_slam/ros/associator_loader.h"
 #include "ekf_slam/ros/conversions.h"
 #include "ekf_slam/tools/association_problem.h"
+#include "ekf_slam/tools/output_files.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
 
 namespace ekf_slam {
@@ -268,31 +268,6 @@ class Progress {
 };
 
 // --- output --------------------------------------------------------------------------------------
-
-void makeDirectory(const std::string& dir) {
-  std::string partial;
-  std::stringstream ss(dir);
-  std::string part;
-  if (!dir.empty() && dir[0] == '/') partial = "/";
-  while (std::getline(ss, part, '/')) {
-    if (part.empty()) continue;
-    partial += part + "/";
-    if (::mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST) {
-      throw std::runtime_error("cannot create output folder " + dir + ": " + std::strerror(errno));
-    }
-  }
-  struct stat st;
-  if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
-    throw std::runtime_error("output folder " + dir + " is not a directory");
-  }
-}
-
-std::ofstream openOutput(const std::string& path) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error("cannot write " + path);
-  out << std::setprecision(10);
-  return out;
-}
 
 std::string plotScript() {
   const std::string pkg = ros::package::getPath("ekf_slam");

@@ -95,9 +95,12 @@ struct ScanReport {
   double stamp = 0.0;
   std::uint32_t scan = 0;                 ///< 0-based count of processed scans
   std::vector<Observation> observations;  ///< after extraction and range filtering
-  AssociationResult association;          ///< kNew entries carry the new landmark's id
-  std::vector<LandmarkId> removed;        ///< landmarks removed after this scan
-  double extraction_s = 0.0;              ///< wall times
+  /// processObservations only: index of each kept observation in the input (invalid ones are
+  /// dropped), e.g. to look up its truth id. Empty for processScan.
+  std::vector<std::uint32_t> input_index;
+  AssociationResult association;    ///< kNew entries carry the new landmark's id
+  std::vector<LandmarkId> removed;  ///< landmarks removed after this scan
+  double extraction_s = 0.0;        ///< wall times
   double association_s = 0.0;
   double update_s = 0.0;
   double nis = 0.0;  ///< of the batch update

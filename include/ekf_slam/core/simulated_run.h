@@ -1,0 +1,113 @@
+// One simulated run scored against its ground truth (ALGORITHMS.md section 9), ROS-free.
+//
+// The same SlamPipeline the node and the offline runner drive is fed a sim::Simulation directly
+// (no bag in between): odometry samples -> addOdometry, observation sets -> processObservations.
+// RunScorer is the per-scan scorer both use, so `evaluate` (Monte Carlo over seeds) and
+// `ekf_slam_offline` on a simulated bag report the same numbers for the same run.
+//
+//   sim::World world = sim::makeWorld("djnn_weak");
+//   PipelineConfig config = sim::pipelineConfigFor(world);
+//   auto djnn = std::make_shared<Djnn>();
+//   djnn->configure(MapParameterSource(sim::associatorParametersFor(world, "DJNN")));
+//   RunMetrics m = runSimulation(world, /*seed=*/1, config, djnn);
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ekf_slam/core/association_metrics.h"
+#include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/simulator.h"
+#include "ekf_slam/core/slam_pipeline.h"
+
+namespace ekf_slam {
+namespace sim {
+
+/// Stamps of a simulated bag are the simulation's plus this offset [s]: a zero stamp means "no
+/// stamp" in ROS (rosbag refuses it, the node skips it). runSimulation uses the same offset, so
+/// a bag run and a direct run see the same times.
+constexpr double kStampOffset = 1.0;
+
+/// Pipeline parameters (the names of docs/parameters.md, values as text) that match a world:
+/// initial pose = the world's start pose, twist-mode noise = twistNoiseFor(world), default R =
+/// the world's observation noise, observation range covering the sensor (a large finite value
+/// for whole-map worlds), min range 0.
+std::map<std::string, std::string> pipelineParametersFor(const World& world);
+/// readPipelineConfig(pipelineParametersFor(world)).
+PipelineConfig pipelineConfigFor(const World& world);
+
+/// Parameters of associator `short_name` ("DJNN", "NN", ...) that depend on the world: DJNN's
+/// sensor_range and field_of_view (the local region, eq. 10: for a whole-map world a range that
+/// covers the whole area); empty for associators without world-dependent parameters.
+std::map<std::string, std::string> associatorParametersFor(const World& world,
+                                                           const std::string& short_name);
+
+}  // namespace sim
+
+/// What one run scored (one row of evaluate's results.csv; the truth part of metrics.json).
+struct RunMetrics {
+  AssociationCounts counts;  ///< TP / FP / FN / TN over every observation of the run
+  MapScore map;              ///< the final map against the truth
+  std::uint64_t scans = 0;
+  std::uint64_t observations = 0;
+  std::uint64_t unknown_pairings = 0;   ///< AssociationScorer::unknownPairings()
+  std::uint64_t identity_switches = 0;  ///< AssociationScorer::identitySwitches()
+  double pose_rmse_m = 0.0;             ///< position RMSE over the scans
+  double heading_rmse_rad = 0.0;
+  /// Mean NEES of the pose over the scans after the first `nees_skip_s` (RunScorer) with a valid
+  /// covariance; NaN when none.
+  double anees = 0.0;
+  std::uint64_t nees_scans = 0;        ///< scans in that mean
+  double association_us_mean = 0.0;    ///< wall time of associate() per scan [us]
+  double update_us_mean = 0.0;         ///< EKF update + initialisation + removal per scan [us]
+  double wall_time_s = 0.0;            ///< the whole run (runSimulation) or the loop (offline)
+  std::uint64_t rejected_updates = 0;  ///< EKF refused a batch update (PipelineCounters)
+};
+
+/// Scores a run scan by scan: the association against the observations' truth ids, the pose
+/// against the true pose at the scan.
+class RunScorer {
+ public:
+  /// NEES of the first `nees_skip_s` seconds after the first scan is left out of the mean: the
+  /// twist model's process noise has rank 2 per step, so the first few covariances are nearly
+  /// singular and their NEES says nothing about consistency (docs/simulation.md).
+  explicit RunScorer(double nees_skip_s = 1.0) : nees_skip_s_(nees_skip_s) {}
+
+  /// One processed scan. truth[i] is the source of report.observations[i] (the sizes must
+  /// agree: throws std::invalid_argument). `estimate` / `cov`: the pose after the update.
+  /// `true_pose` may be null (no ground truth for this scan: pose metrics skip it).
+  void addScan(const ScanReport& report, const std::vector<LandmarkId>& truth,
+               const Eigen::Vector3d& estimate, const Eigen::Matrix3d& cov,
+               const Eigen::Vector3d* true_pose);
+
+  /// Everything so far. `pipeline` supplies the final map size and counters (may be null).
+  RunMetrics metrics(const SlamPipeline* pipeline) const;
+  /// NEES per scored scan, in order (NaN where invalid or without truth): for Monte Carlo ANEES.
+  const std::vector<double>& neesPerScan() const { return nees_; }
+  const AssociationScorer& scorer() const { return scorer_; }
+
+ private:
+  double nees_skip_s_;
+  double first_stamp_ = 0.0;
+  bool have_first_ = false;
+  AssociationScorer scorer_;
+  PoseErrorStats pose_;
+  double nees_sum_ = 0.0;
+  std::uint64_t nees_n_ = 0, scans_ = 0, observations_ = 0;
+  double association_s_ = 0.0, update_s_ = 0.0;
+  std::vector<double> nees_;
+};
+
+/// Runs world + seed through a fresh SlamPipeline with `associator` (configured already; it is
+/// reset first) and scores it. Stamps carry sim::kStampOffset. `nees_per_scan`, when given,
+/// receives RunScorer::neesPerScan(). Throws what SlamPipeline and Simulation throw.
+RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const PipelineConfig& config,
+                         std::shared_ptr<DataAssociation> associator,
+                         std::vector<double>* nees_per_scan = nullptr);
+
+}  // namespace ekf_slam

@@ -1,0 +1,152 @@
+#include "ekf_slam/core/simulated_run.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <utility>
+
+#include "ekf_slam/core/pipeline_config.h"
+
+namespace ekf_slam {
+namespace sim {
+namespace {
+
+std::string text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.17g", v);
+  return buf;
+}
+
+// A range that covers every landmark of the world from anywhere in it: what "the whole map is
+// visible" means to range-limited code (the pipeline's filter, DJNN's local region).
+double coveringRange(const World& w) {
+  if (std::isfinite(w.sensor.max_range)) return w.sensor.max_range;
+  return std::ceil(1.5 * (w.area_max - w.area_min).norm());
+}
+
+}  // namespace
+
+std::map<std::string, std::string> pipelineParametersFor(const World& world) {
+  const TwistParams t = twistNoiseFor(world);
+  return {
+      {"odometry_mode", "twist"},
+      {"twist_sigma_v", text(t.sigma_v)},
+      {"twist_sigma_v_per_v", text(t.sigma_v_per_v)},
+      {"twist_sigma_w", text(t.sigma_w)},
+      {"twist_sigma_w_per_v", text(t.sigma_w_per_v)},
+      {"sigma_range", text(world.noise.sigma_range)},
+      {"sigma_bearing", text(world.noise.sigma_bearing)},
+      {"max_observation_range", text(coveringRange(world))},
+      {"min_observation_range", "0"},
+      {"initial_pose_x", text(world.start_pose.x())},
+      {"initial_pose_y", text(world.start_pose.y())},
+      {"initial_pose_yaw", text(world.start_pose.z())},
+  };
+}
+
+PipelineConfig pipelineConfigFor(const World& world) {
+  return readPipelineConfig(MapParameterSource(pipelineParametersFor(world)));
+}
+
+std::map<std::string, std::string> associatorParametersFor(const World& world,
+                                                           const std::string& short_name) {
+  if (short_name != "DJNN") return {};
+  // DJNN's local region (eq. 10) and its evidence counter need the sensor's real extent: a
+  // landmark outside it must not be counted as missed.
+  return {{"sensor_range", text(coveringRange(world))},
+          {"field_of_view", text(std::min(world.sensor.field_of_view, 2.0 * M_PI))}};
+}
+
+}  // namespace sim
+
+// --- RunScorer -----------------------------------------------------------------------------------
+
+void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>& truth,
+                        const Eigen::Vector3d& estimate, const Eigen::Matrix3d& cov,
+                        const Eigen::Vector3d* true_pose) {
+  if (truth.size() != report.observations.size()) {
+    throw std::invalid_argument("RunScorer: " + std::to_string(truth.size()) + " truth ids for " +
+                                std::to_string(report.observations.size()) + " observations");
+  }
+  scorer_.addScan(truth, report.association, report.removed);
+  ++scans_;
+  observations_ += truth.size();
+  association_s_ += report.association_s;
+  update_s_ += report.update_s;
+  if (!have_first_) {
+    have_first_ = true;
+    first_stamp_ = report.stamp;
+  }
+  double nees = std::numeric_limits<double>::quiet_NaN();
+  if (true_pose != nullptr) {
+    nees = pose_.add(estimate, cov, *true_pose);
+    if (std::isfinite(nees) && report.stamp - first_stamp_ >= nees_skip_s_) {
+      nees_sum_ += nees;
+      ++nees_n_;
+    }
+  }
+  nees_.push_back(nees);
+}
+
+RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
+  RunMetrics m;
+  m.counts = scorer_.counts();
+  m.map = scorer_.mapScore();
+  m.scans = scans_;
+  m.observations = observations_;
+  m.unknown_pairings = scorer_.unknownPairings();
+  m.identity_switches = scorer_.identitySwitches();
+  const bool have_pose = pose_.count() > 0;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  m.pose_rmse_m = have_pose ? pose_.positionRmse() : nan;
+  m.heading_rmse_rad = have_pose ? pose_.headingRmse() : nan;
+  m.anees = nees_n_ > 0 ? nees_sum_ / static_cast<double>(nees_n_) : nan;
+  m.nees_scans = nees_n_;
+  const double n = scans_ > 0 ? static_cast<double>(scans_) : 1.0;
+  m.association_us_mean = 1e6 * association_s_ / n;
+  m.update_us_mean = 1e6 * update_s_ / n;
+  if (pipeline != nullptr) m.rejected_updates = pipeline->counters().rejected_updates;
+  return m;
+}
+
+// --- runSimulation -------------------------------------------------------------------------------
+
+RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const PipelineConfig& config,
+                         std::shared_ptr<DataAssociation> associator,
+                         std::vector<double>* nees_per_scan) {
+  const auto t0 = std::chrono::steady_clock::now();
+  associator->reset();
+  SlamPipeline pipeline(config, std::move(associator));
+  pipeline.setSensorOffset(world.sensor.offset);
+  sim::Simulation simulation(world, seed);
+  RunScorer scorer;
+  std::vector<LandmarkId> truth;
+  // Fed exactly as the offline runner feeds a simulated bag: odometry, then the set of the same
+  // stamp, with the bag's stamp offset.
+  for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
+    if (e == sim::Simulation::Event::kOdometry) {
+      const sim::OdometrySample& o = simulation.odometry();
+      OdometryInput in;
+      in.stamp = o.stamp + sim::kStampOffset;
+      in.twist = o.twist;
+      in.pose = o.pose;
+      pipeline.addOdometry(in);
+      continue;
+    }
+    const sim::ObservationSet& set = simulation.observations();
+    const std::vector<LandmarkId> all = set.truthIds();
+    const ScanReport report =
+        pipeline.processObservations(set.stamp + sim::kStampOffset, set.toObservations());
+    truth.clear();
+    for (const std::uint32_t i : report.input_index) truth.push_back(all[i]);
+    scorer.addScan(report, truth, pipeline.pose(), pipeline.poseCovariance(), &set.true_pose);
+  }
+  RunMetrics m = scorer.metrics(&pipeline);
+  m.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (nees_per_scan != nullptr) *nees_per_scan = scorer.neesPerScan();
+  return m;
+}
+
+}  // namespace ekf_slam

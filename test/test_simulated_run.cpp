@@ -1,0 +1,136 @@
+// A simulated run through the SlamPipeline, scored against the truth: world parameters, the
+// scorer's bookkeeping, and a regression guard on DJNN's accuracy.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/nn.h"
+#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/simulated_run.h"
+
+namespace ekf_slam {
+namespace {
+
+std::shared_ptr<DataAssociation> makeDjnn(const sim::World& w) {
+  auto djnn = std::make_shared<DJNN>();
+  djnn->configure(MapParameterSource(sim::associatorParametersFor(w, "DJNN")));
+  return djnn;
+}
+
+TEST(WorldParameters, MatchTheWorld) {
+  const sim::World w = sim::makeWorld("hybrid");
+  const PipelineConfig c = sim::pipelineConfigFor(w);
+  EXPECT_EQ(c.odometry_mode, "twist");
+  EXPECT_DOUBLE_EQ(c.sigma_range, w.noise.sigma_range);
+  EXPECT_DOUBLE_EQ(c.sigma_bearing, w.noise.sigma_bearing);
+  EXPECT_DOUBLE_EQ(c.twist.sigma_v, sim::twistNoiseFor(w).sigma_v);
+  EXPECT_DOUBLE_EQ(c.twist.sigma_w_per_v, sim::twistNoiseFor(w).sigma_w_per_v);
+  EXPECT_DOUBLE_EQ(c.max_observation_range, w.sensor.max_range);
+  EXPECT_TRUE(c.initial_pose.isApprox(w.start_pose));
+  EXPECT_TRUE(sim::associatorParametersFor(w, "NN").empty());
+  EXPECT_EQ(sim::associatorParametersFor(w, "DJNN").at("sensor_range"), "30");
+}
+
+TEST(WorldParameters, WholeMapWorldsGetACoveringRange) {
+  const sim::World w = sim::makeWorld("rrw_noise_1");
+  ASSERT_FALSE(std::isfinite(w.sensor.max_range));
+  const double diagonal = (w.area_max - w.area_min).norm();
+  EXPECT_GE(sim::pipelineConfigFor(w).max_observation_range, diagonal);
+  const auto djnn = sim::associatorParametersFor(w, "DJNN");
+  EXPECT_GE(std::stod(djnn.at("sensor_range")), diagonal);
+  EXPECT_LE(std::stod(djnn.at("field_of_view")), 2.0 * M_PI);
+  // Both are accepted by the code that reads them.
+  DJNN d;
+  EXPECT_NO_THROW(d.configure(MapParameterSource(djnn)));
+}
+
+TEST(RunScorer, RejectsMisalignedTruth) {
+  RunScorer scorer;
+  ScanReport report;
+  report.observations.resize(2);
+  report.association.resize(2);
+  EXPECT_THROW(
+      scorer.addScan(report, {1}, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity(), nullptr),
+      std::invalid_argument);
+}
+
+TEST(RunScorer, CountsScansAndSkipsEarlyNees) {
+  RunScorer scorer(/*nees_skip_s=*/1.0);
+  const Eigen::Matrix3d cov = Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d truth = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 4; ++k) {
+    ScanReport r;
+    r.stamp = 10.0 + 0.5 * k;  // 10, 10.5 skipped; 11, 11.5 counted
+    r.observations.resize(1);
+    r.association.resize(1);
+    r.association.decision[0] = Decision::kNew;
+    r.association.landmark[0] = k;
+    r.association_s = 1e-6;
+    scorer.addScan(r, {k}, Eigen::Vector3d(k, 0, 0), cov, &truth);
+  }
+  const RunMetrics m = scorer.metrics(nullptr);
+  EXPECT_EQ(m.scans, 4u);
+  EXPECT_EQ(m.observations, 4u);
+  EXPECT_EQ(m.counts.tn, 4u);  // four new landmarks, correctly left unpaired
+  EXPECT_EQ(m.map.landmarks, 4u);
+  EXPECT_EQ(m.nees_scans, 2u);
+  EXPECT_DOUBLE_EQ(m.anees, (4.0 + 9.0) / 2.0);  // NEES = x^2 with unit covariance
+  EXPECT_DOUBLE_EQ(m.pose_rmse_m, std::sqrt((0.0 + 1.0 + 4.0 + 9.0) / 4.0));
+  EXPECT_NEAR(m.association_us_mean, 1.0, 1e-9);
+  ASSERT_EQ(scorer.neesPerScan().size(), 4u);
+  EXPECT_DOUBLE_EQ(scorer.neesPerScan()[1], 1.0);
+}
+
+// Regression guard, generous on purpose: the tiny world (8 landmarks, a mover, clutter) through
+// the whole pipeline with DJNN.
+TEST(RunSimulation, TinyWorldWithDjnn) {
+  const sim::World w = sim::makeWorld("tiny");
+  const RunMetrics m = runSimulation(w, 1, sim::pipelineConfigFor(w), makeDjnn(w));
+  std::printf(
+      "tiny/DJNN: accuracy %.4f precision %.4f recall %.4f, map %zu (%zu spurious), "
+      "RMSE %.3f m, ANEES %.2f, %.1f us per association\n",
+      m.counts.accuracy(), m.counts.precision(), m.counts.recall(), m.map.landmarks, m.map.spurious,
+      m.pose_rmse_m, m.anees, m.association_us_mean);
+  EXPECT_GT(m.scans, 100u);
+  EXPECT_GT(m.counts.accuracy(), 0.95);
+  EXPECT_GE(m.map.true_landmarks_mapped, 7u);
+  EXPECT_LT(m.pose_rmse_m, 1.0);
+  EXPECT_EQ(m.rejected_updates, 0u);
+}
+
+TEST(RunSimulation, SameSeedSameScores) {
+  const sim::World w = sim::makeWorld("tiny");
+  std::vector<double> nees_a, nees_b;
+  const RunMetrics a = runSimulation(w, 7, sim::pipelineConfigFor(w), makeDjnn(w), &nees_a);
+  const RunMetrics b = runSimulation(w, 7, sim::pipelineConfigFor(w), makeDjnn(w), &nees_b);
+  EXPECT_EQ(a.counts.tp, b.counts.tp);
+  EXPECT_EQ(a.counts.fp, b.counts.fp);
+  EXPECT_EQ(a.map.landmarks, b.map.landmarks);
+  EXPECT_DOUBLE_EQ(a.pose_rmse_m, b.pose_rmse_m);
+  ASSERT_EQ(nees_a.size(), a.scans);
+  EXPECT_EQ(nees_a.size(), nees_b.size());
+}
+
+// NN keeps every mover and clutter return it ever initialised; DJNN's evidence counter removes
+// them: the same run must show it in the final map.
+TEST(RunSimulation, DjnnMapHasFewerSpuriousLandmarksThanNn) {
+  sim::World w = sim::makeWorld("tiny");
+  w.clutter_rate = 1.0;
+  auto nn = std::make_shared<NN>();
+  nn->configure(MapParameterSource());
+  const RunMetrics with_nn = runSimulation(w, 3, sim::pipelineConfigFor(w), nn);
+  const RunMetrics with_djnn = runSimulation(w, 3, sim::pipelineConfigFor(w), makeDjnn(w));
+  EXPECT_LT(with_djnn.map.spurious, with_nn.map.spurious);
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

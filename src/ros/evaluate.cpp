@@ -1,0 +1,498 @@
+#include "ekf_slam/ros/evaluate.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/ros/associator_loader.h"
+#include "ekf_slam/tools/output_files.h"
+#include "ekf_slam/tools/yaml_parameter_source.h"
+
+namespace ekf_slam {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::string shortName(const std::string& lookup) { return lookup.substr(lookup.rfind('/') + 1); }
+
+std::vector<std::string> splitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (!item.empty()) out.push_back(item);
+  }
+  return out;
+}
+
+// The parameters of one (world, associator): the world's values, then the YAML's, then --set.
+struct RunSetup {
+  sim::World world;
+  PipelineConfig config;
+  YamlParameterSource associator_params;
+};
+
+YamlParameterSource pipelineSource(const EvaluateOptions& o, const sim::World& w) {
+  YamlParameterSource p =
+      o.params_path.empty() ? YamlParameterSource() : YamlParameterSource::fromFile(o.params_path);
+  for (const auto& [name, value] : sim::pipelineParametersFor(w)) {
+    if (!p.contains(name)) p.set(name, value);
+  }
+  for (const auto& [name, value] : o.overrides) {
+    if (name.find('/') == std::string::npos) p.set(name, value);
+  }
+  return p;
+}
+
+YamlParameterSource associatorSource(const EvaluateOptions& o, const sim::World& w,
+                                     const std::string& short_name) {
+  // Section only, as the node reads ~<NAME> and the offline runner the same YAML.
+  YamlParameterSource p = o.params_path.empty() ? YamlParameterSource()
+                                                : YamlParameterSource::fromFile(
+                                                      o.params_path, short_name,
+                                                      YamlParameterSource::Scope::kSectionOnly);
+  for (const auto& [name, value] : sim::associatorParametersFor(w, short_name)) {
+    if (!p.contains(name)) p.set(name, value);
+  }
+  for (const auto& [name, value] : o.overrides) {
+    const auto slash = name.find('/');
+    if (slash == std::string::npos) continue;
+    const std::string section = name.substr(0, slash);
+    if (section == "*" || section == short_name) p.set(name.substr(slash + 1), value);
+  }
+  return p;
+}
+
+// --- statistics ----------------------------------------------------------------------------------
+
+struct Spread {
+  double mean = 0.0, sd = 0.0;
+  std::size_t n = 0;
+};
+
+// Mean and sample standard deviation of the finite values.
+Spread spread(const std::vector<double>& v) {
+  Spread s;
+  for (const double x : v) {
+    if (!std::isfinite(x)) continue;
+    s.mean += x;
+    ++s.n;
+  }
+  if (s.n == 0) {
+    s.mean = std::numeric_limits<double>::quiet_NaN();
+    return s;
+  }
+  s.mean /= static_cast<double>(s.n);
+  double ss = 0.0;
+  for (const double x : v) {
+    if (std::isfinite(x)) ss += (x - s.mean) * (x - s.mean);
+  }
+  s.sd = s.n > 1 ? std::sqrt(ss / static_cast<double>(s.n - 1)) : 0.0;
+  return s;
+}
+
+std::string format(double v, int decimals) {
+  if (!std::isfinite(v)) return "n/a";
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  return buf;
+}
+
+std::string format(const Spread& s, int decimals) {
+  if (s.n == 0) return "n/a";
+  return format(s.mean, decimals) + " ± " + format(s.sd, decimals);
+}
+
+// Scans whose NEES is left out of the Monte Carlo average (the first second, see RunScorer).
+std::size_t neesSkipScans(const sim::World& w) {
+  return static_cast<std::size_t>(std::ceil(1.0 / w.observation_period - 1e-9));
+}
+
+MonteCarloNees monteCarloNees(const std::vector<const EvaluationRow*>& rows, std::size_t skip) {
+  MonteCarloNees mc;
+  for (const EvaluationRow* r : rows) {
+    for (std::size_t k = skip; k < r->nees.size(); ++k) mc.add(k, r->nees[k]);
+  }
+  return mc;
+}
+
+double meanOver(const MonteCarloNees& mc) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < mc.scans(); ++k) {
+    const double a = mc.average(k);
+    if (std::isfinite(a)) {
+      sum += a;
+      ++n;
+    }
+  }
+  return n > 0 ? sum / static_cast<double>(n) : std::numeric_limits<double>::quiet_NaN();
+}
+
+// Rows of one world and associator, in run order.
+std::vector<const EvaluationRow*> select(const Evaluation& e, const std::string& world,
+                                         const std::string& associator) {
+  std::vector<const EvaluationRow*> out;
+  for (const EvaluationRow& r : e.rows) {
+    if (r.world == world && r.associator == associator) out.push_back(&r);
+  }
+  return out;
+}
+
+std::vector<std::string> associatorShortNames(const EvaluateOptions& o) {
+  std::vector<std::string> out;
+  for (const std::string& a : o.associators)
+    out.push_back(shortName(AssociatorLoader::lookupName(a)));
+  return out;
+}
+
+}  // namespace
+
+// -------------------------------------------------------------------------------------------------
+
+std::vector<std::string> expandWorldNames(const std::vector<std::string>& patterns) {
+  const std::vector<std::string> all = sim::worldNames();
+  std::vector<std::string> out;
+  for (const std::string& p : patterns) {
+    const bool prefix = !p.empty() && p.back() == '*';
+    const std::string stem = prefix ? p.substr(0, p.size() - 1) : p;
+    std::size_t matched = 0;
+    for (const std::string& name : all) {
+      if (prefix ? name.compare(0, stem.size(), stem) == 0 : name == p) {
+        if (std::find(out.begin(), out.end(), name) == out.end()) out.push_back(name);
+        ++matched;
+      }
+    }
+    if (matched == 0) {
+      std::string names;
+      for (const auto& n : all) names += (names.empty() ? "" : ", ") + n;
+      throw std::invalid_argument("unknown world '" + p + "'; available: " + names);
+    }
+  }
+  return out;
+}
+
+Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
+  if (o.runs < 1) throw std::invalid_argument("--runs must be at least 1");
+  if (o.associators.empty()) throw std::invalid_argument("no associators given");
+  Evaluation e;
+  e.options = o;
+  e.worlds = expandWorldNames(o.worlds);
+  if (e.worlds.empty()) throw std::invalid_argument("no world given (--world NAME)");
+
+  // Everything that can be wrong with names and parameters fails here, before any run.
+  AssociatorLoader loader;
+  const std::vector<std::string> shorts = associatorShortNames(o);
+  std::vector<RunSetup> setups;  // world-major, then associator
+  for (const std::string& name : e.worlds) {
+    const sim::World w = sim::makeWorld(name);
+    const PipelineConfig config = readPipelineConfig(pipelineSource(o, w));
+    for (std::size_t a = 0; a < o.associators.size(); ++a) {
+      RunSetup s{w, config, associatorSource(o, w, shorts[a])};
+      loader.create(o.associators[a], s.associator_params);  // validates name and parameters
+      setups.push_back(std::move(s));
+    }
+  }
+
+  for (std::size_t s = 0; s < setups.size(); ++s) {
+    const std::uint64_t first = o.first_seed_set ? o.first_seed : setups[s].world.default_seed;
+    for (int r = 0; r < o.runs; ++r) {
+      EvaluationRow row;
+      row.world = setups[s].world.name;
+      row.associator = shorts[s % shorts.size()];
+      row.run = r;
+      row.seed = first + static_cast<std::uint64_t>(r);
+      e.rows.push_back(std::move(row));
+    }
+  }
+
+  // Runs are independent: a pool of threads takes them in order. The plugin loader is shared,
+  // so creating an associator is serialised; running one is not.
+  unsigned jobs = o.jobs > 0 ? static_cast<unsigned>(o.jobs) : std::thread::hardware_concurrency();
+  jobs = std::max(1u, std::min<unsigned>(jobs, static_cast<unsigned>(e.rows.size())));
+  std::atomic<std::size_t> next{0}, done{0};
+  std::mutex mutex;
+  std::string error;
+  const bool progress = o.progress;
+  const std::size_t runs_per_setup = static_cast<std::size_t>(o.runs);
+  const auto t0 = Clock::now();
+  const auto worker = [&]() {
+    for (std::size_t i = next++; i < e.rows.size(); i = next++) {
+      EvaluationRow& row = e.rows[i];
+      const RunSetup& setup = setups[i / runs_per_setup];
+      try {
+        std::shared_ptr<DataAssociation> associator;
+        {
+          std::lock_guard<std::mutex> lock(mutex);
+          if (!error.empty()) return;
+          associator = loader.create(o.associators[(i / runs_per_setup) % shorts.size()],
+                                     setup.associator_params);
+        }
+        row.metrics = runSimulation(setup.world, row.seed, setup.config, associator, &row.nees);
+      } catch (const std::exception& ex) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (error.empty()) {
+          error = row.world + " / " + row.associator + " / seed " + std::to_string(row.seed) +
+                  ": " + ex.what();
+        }
+        return;
+      }
+      const std::size_t d = ++done;
+      if (progress) {
+        std::lock_guard<std::mutex> lock(mutex);
+        log << "\r" << d << "/" << e.rows.size() << " runs (" << row.world << ", " << row.associator
+            << ", seed " << row.seed << ")          " << std::flush;
+      }
+    }
+  };
+  std::vector<std::thread> threads;
+  for (unsigned j = 0; j < jobs; ++j) threads.emplace_back(worker);
+  for (std::thread& t : threads) t.join();
+  if (progress) log << "\n";
+  if (!error.empty()) throw std::runtime_error(error);
+  e.wall_time_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  return e;
+}
+
+// --- output --------------------------------------------------------------------------------------
+
+std::string summaryMarkdown(const Evaluation& e, const std::string& command) {
+  std::ostringstream md;
+  const EvaluateOptions& o = e.options;
+  md << "# Evaluation: " << o.runs << " runs per world and associator\n\n";
+  md << "    " << command << "\n\n";
+  md << "Wall time " << format(e.wall_time_s, 1) << " s. Mean ± sample standard deviation over "
+     << "the runs; accuracy, precision, recall, F1 per observation (ALGORITHMS.md section 9); "
+     << "spurious = final-map landmarks whose majority truth is a mover or clutter, plus "
+     << "duplicates of a true landmark; ANEES = Monte Carlo average NEES of the pose per scan, "
+     << "averaged over the scans (first second left out), with the share of scans inside the 95 "
+     << "% band for that many runs.\n";
+  const std::vector<std::string> shorts = associatorShortNames(o);
+  for (const std::string& world : e.worlds) {
+    const sim::World w = sim::makeWorld(world);
+    std::uint64_t lo = std::numeric_limits<std::uint64_t>::max(), hi = 0;
+    for (const EvaluationRow& r : e.rows) {
+      if (r.world != world) continue;
+      lo = std::min(lo, r.seed);
+      hi = std::max(hi, r.seed);
+    }
+    const bool stop = !w.description.empty() && w.description.back() == '.';
+    md << "\n## " << world << "\n\n"
+       << w.description << (stop ? " " : ". ") << "Seeds " << lo << ".." << hi << ".\n\n";
+    md << "| associator | accuracy | precision | recall | F1 | landmarks | spurious | spurious % | "
+          "true seen | pose RMSE [m] | ANEES | in band | association [us/scan] | run [s] |\n";
+    md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const std::string& a : shorts) {
+      const auto rows = select(e, world, a);
+      if (rows.empty()) continue;
+      std::vector<double> acc, prec, rec, f1, lm, sp, sp_pct, seen, rmse, us, wall;
+      for (const EvaluationRow* r : rows) {
+        const RunMetrics& m = r->metrics;
+        acc.push_back(m.counts.accuracy());
+        prec.push_back(m.counts.precision());
+        rec.push_back(m.counts.recall());
+        f1.push_back(m.counts.f1());
+        lm.push_back(static_cast<double>(m.map.landmarks));
+        sp.push_back(static_cast<double>(m.map.spurious));
+        sp_pct.push_back(m.map.landmarks > 0 ? 100.0 * m.map.spurious / m.map.landmarks : 0.0);
+        seen.push_back(static_cast<double>(m.map.true_landmarks_seen));
+        rmse.push_back(m.pose_rmse_m);
+        us.push_back(m.association_us_mean);
+        wall.push_back(m.wall_time_s);
+      }
+      const MonteCarloNees mc = monteCarloNees(rows, neesSkipScans(w));
+      const NeesBand band = neesBand(static_cast<int>(rows.size()));
+      md << "| " << a << " | " << format(spread(acc), 4) << " | " << format(spread(prec), 4)
+         << " | " << format(spread(rec), 4) << " | " << format(spread(f1), 4) << " | "
+         << format(spread(lm), 1) << " | " << format(spread(sp), 1) << " | "
+         << format(spread(sp_pct), 1) << " | " << format(spread(seen), 1) << " | "
+         << format(spread(rmse), 3) << " | " << format(meanOver(mc), 2) << " ["
+         << format(band.lower, 2) << ", " << format(band.upper, 2) << "] | "
+         << format(100.0 * mc.fractionInBand(), 0) << " % | " << format(spread(us), 1) << " | "
+         << format(spread(wall).mean, 2) << " |\n";
+    }
+  }
+  return md.str();
+}
+
+void writeEvaluation(const Evaluation& e, const std::string& command) {
+  const std::string& dir = e.options.out_dir;
+  makeDirectory(dir);
+  {
+    std::ofstream csv = openOutput(dir + "/results.csv");
+    csv << "world,associator,run,seed,accuracy,precision,recall,f1,tp,fp,fn,tn,landmarks,"
+           "true_landmarks_seen,true_landmarks_mapped,spurious_landmarks,non_landmarks,"
+           "duplicates,pose_rmse_m,heading_rmse_rad,anees,association_us_mean,update_us_mean,"
+           "scans,observations,rejected_updates,identity_switches,wall_time_s\n";
+    for (const EvaluationRow& r : e.rows) {
+      const RunMetrics& m = r.metrics;
+      csv << r.world << ',' << r.associator << ',' << r.run << ',' << r.seed << ','
+          << m.counts.accuracy() << ',' << m.counts.precision() << ',' << m.counts.recall() << ','
+          << m.counts.f1() << ',' << m.counts.tp << ',' << m.counts.fp << ',' << m.counts.fn << ','
+          << m.counts.tn << ',' << m.map.landmarks << ',' << m.map.true_landmarks_seen << ','
+          << m.map.true_landmarks_mapped << ',' << m.map.spurious << ',' << m.map.non_landmarks
+          << ',' << m.map.duplicates << ',' << m.pose_rmse_m << ',' << m.heading_rmse_rad << ','
+          << m.anees << ',' << m.association_us_mean << ',' << m.update_us_mean << ',' << m.scans
+          << ',' << m.observations << ',' << m.rejected_updates << ',' << m.identity_switches << ','
+          << m.wall_time_s << '\n';
+    }
+  }
+  {
+    std::ofstream csv = openOutput(dir + "/nees.csv");
+    csv << "world,associator,scan,anees,runs,band_lower,band_upper\n";
+    for (const std::string& world : e.worlds) {
+      const sim::World w = sim::makeWorld(world);
+      for (const std::string& a : associatorShortNames(e.options)) {
+        const MonteCarloNees mc = monteCarloNees(select(e, world, a), neesSkipScans(w));
+        for (std::size_t k = 0; k < mc.scans(); ++k) {
+          if (mc.runs(k) == 0) continue;
+          const NeesBand b = neesBand(mc.runs(k));
+          csv << world << ',' << a << ',' << k << ',' << mc.average(k) << ',' << mc.runs(k) << ','
+              << b.lower << ',' << b.upper << '\n';
+        }
+      }
+    }
+  }
+  openOutput(dir + "/summary.md") << summaryMarkdown(e, command);
+}
+
+// --- command line --------------------------------------------------------------------------------
+
+void printEvaluateUsage(std::ostream& out) {
+  out << "usage: evaluate --world NAME[,NAME...] --out DIR [--runs N] [--associators A,B,...]\n"
+         "                [--seed FIRST] [--params YAML] [--set NAME=VALUE ...] [--jobs N]\n"
+         "                [--no-progress]\n"
+         "Runs each associator on the same simulated seeds and scores it against the truth:\n"
+         "DIR/results.csv (a row per run), DIR/nees.csv, DIR/summary.md.\n"
+         "  NAME       a world (simulate --list), or a prefix with '*' (e.g. 'rrw_noise_*')\n"
+         "  --runs     Monte Carlo runs per world and associator (default 20)\n"
+         "  --associators  plugin names (default ekf_slam/NN,ekf_slam/JCBB,ekf_slam/DJNN)\n"
+         "  --seed     seed of the first run (default: the world's default seed)\n"
+         "  --params   YAML, pipeline parameters at the top level and each associator's under\n"
+         "             its name; overrides the world's settings\n"
+         "  --set      NAME=VALUE (pipeline), DJNN/NAME=VALUE (one associator),\n"
+         "             '*/NAME=VALUE' (every associator); applied last\n"
+         "  --jobs     parallel runs (default: the number of cores)\n";
+}
+
+bool parseEvaluateArguments(const std::vector<std::string>& args, EvaluateOptions* o, bool* help,
+                            std::string* error) {
+  *help = false;
+  const auto number = [&](const std::string& flag, const std::string& v, long long lo,
+                          long long* out) {
+    try {
+      std::size_t used = 0;
+      const long long x = std::stoll(v, &used);
+      if (used != v.size() || x < lo) throw std::invalid_argument(v);
+      *out = x;
+      return true;
+    } catch (const std::exception&) {
+      *error = flag + " needs an integer >= " + std::to_string(lo) + ", got '" + v + "'";
+      return false;
+    }
+  };
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "-h" || a == "--help") {
+      *help = true;
+      return true;
+    }
+    if (a == "--no-progress") {
+      o->progress = false;
+      continue;
+    }
+    static const std::vector<std::string> with_value = {
+        "--world",      "--worlds", "--out",    "--runs", "--associators",
+        "--associator", "--seed",   "--params", "--set",  "--jobs"};
+    if (std::find(with_value.begin(), with_value.end(), a) == with_value.end()) {
+      *error = "unknown argument '" + a + "'";
+      return false;
+    }
+    if (i + 1 >= args.size()) {
+      *error = a + " needs a value";
+      return false;
+    }
+    const std::string& v = args[++i];
+    long long n = 0;
+    if (a == "--world" || a == "--worlds") {
+      for (const auto& w : splitList(v)) o->worlds.push_back(w);
+    } else if (a == "--out") {
+      o->out_dir = v;
+    } else if (a == "--associators" || a == "--associator") {
+      o->associators = splitList(v);
+    } else if (a == "--params") {
+      o->params_path = v;
+    } else if (a == "--runs") {
+      if (!number(a, v, 1, &n)) return false;
+      o->runs = static_cast<int>(n);
+    } else if (a == "--jobs") {
+      if (!number(a, v, 1, &n)) return false;
+      o->jobs = static_cast<int>(n);
+    } else if (a == "--seed") {
+      if (!number(a, v, 0, &n)) return false;
+      o->first_seed = static_cast<std::uint64_t>(n);
+      o->first_seed_set = true;
+    } else {  // --set
+      const auto eq = v.find('=');
+      if (eq == std::string::npos || eq == 0) {
+        *error = "--set needs NAME=VALUE, got '" + v + "'";
+        return false;
+      }
+      o->overrides.emplace_back(v.substr(0, eq), v.substr(eq + 1));
+    }
+  }
+  if (o->worlds.empty() || o->out_dir.empty()) {
+    *error = "--world and --out are required";
+    return false;
+  }
+  if (o->associators.empty()) {
+    *error = "--associators needs at least one name";
+    return false;
+  }
+  return true;
+}
+
+int evaluateMain(int argc, char** argv) {
+  EvaluateOptions options;
+  bool help = false;
+  std::string error;
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  if (!parseEvaluateArguments(args, &options, &help, &error)) {
+    std::cerr << "evaluate: " << error << "\n";
+    printEvaluateUsage(std::cerr);
+    return 2;
+  }
+  if (help) {
+    printEvaluateUsage(std::cout);
+    return 0;
+  }
+  std::string command = "rosrun ekf_slam evaluate";
+  for (const std::string& a : args) {
+    const bool plain = a.find_first_of(" *'\"$") == std::string::npos;
+    command += " " + (plain ? a : "'" + a + "'");
+  }
+  try {
+    const Evaluation e = runEvaluation(options, std::cerr);
+    writeEvaluation(e, command);
+    std::cout << summaryMarkdown(e, command);
+    std::cout << "\nwrote " << options.out_dir << "/{results.csv,nees.csv,summary.md} ("
+              << e.rows.size() << " runs in " << format(e.wall_time_s, 1) << " s)\n";
+  } catch (const std::exception& ex) {
+    std::cerr << "evaluate: " << ex.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace ekf_slam

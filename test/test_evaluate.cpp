@@ -1,0 +1,186 @@
+// The evaluate tool: arguments, world patterns, parallel runs equal to serial ones, output files,
+// errors before any run.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/ros/associator_loader.h"
+#include "ekf_slam/ros/evaluate.h"
+
+namespace ekf_slam {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string tempDir() {
+  std::string templ = (fs::temp_directory_path() / "evaluate_XXXXXX").string();
+  if (mkdtemp(templ.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+  return templ;
+}
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+bool parse(std::vector<std::string> args, EvaluateOptions* o, std::string* error) {
+  bool help = false;
+  return parseEvaluateArguments(args, o, &help, error);
+}
+
+TEST(EvaluateArguments, ParsesEverything) {
+  EvaluateOptions o;
+  std::string error;
+  ASSERT_TRUE(parse(
+      {"--world", "djnn_weak,hybrid", "--runs", "5", "--associators", "NN,DJNN", "--out", "/tmp/x",
+       "--seed", "3", "--jobs", "1", "--set", "DJNN/individual_probability=0.999", "--no-progress"},
+      &o, &error))
+      << error;
+  EXPECT_EQ(o.worlds, (std::vector<std::string>{"djnn_weak", "hybrid"}));
+  EXPECT_EQ(o.runs, 5);
+  EXPECT_EQ(o.associators, (std::vector<std::string>{"NN", "DJNN"}));
+  EXPECT_TRUE(o.first_seed_set);
+  EXPECT_EQ(o.first_seed, 3u);
+  EXPECT_EQ(o.jobs, 1);
+  ASSERT_EQ(o.overrides.size(), 1u);
+  EXPECT_EQ(o.overrides[0].first, "DJNN/individual_probability");
+  EXPECT_EQ(o.overrides[0].second, "0.999");
+  EXPECT_FALSE(o.progress);
+}
+
+TEST(EvaluateArguments, RejectsBadOnes) {
+  EvaluateOptions o;
+  std::string error;
+  EXPECT_FALSE(parse({"--out", "/tmp/x"}, &o, &error));
+  EXPECT_NE(error.find("--world"), std::string::npos);
+  EXPECT_FALSE(parse({"--world", "tiny", "--out", "/tmp/x", "--runs", "0"}, &o, &error));
+  EXPECT_NE(error.find("--runs"), std::string::npos);
+  EXPECT_FALSE(parse({"--world", "tiny", "--out", "/tmp/x", "--set", "novalue"}, &o, &error));
+  EXPECT_FALSE(parse({"--world", "tiny", "--out", "/tmp/x", "--frobnicate"}, &o, &error));
+  EXPECT_NE(error.find("--frobnicate"), std::string::npos);
+}
+
+TEST(EvaluateWorlds, ExpandsPrefixesAndListsNamesOnError) {
+  const auto noise = expandWorldNames({"rrw_noise_*"});
+  ASSERT_EQ(noise.size(), 10u);
+  EXPECT_EQ(noise.front(), "rrw_noise_1");
+  EXPECT_EQ(expandWorldNames({"tiny", "tiny"}).size(), 1u);
+  try {
+    expandWorldNames({"djnn_wek"});
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("djnn_weak"), std::string::npos) << e.what();
+  }
+}
+
+EvaluateOptions tinyOptions(const std::string& out) {
+  EvaluateOptions o;
+  o.worlds = {"tiny"};
+  o.runs = 2;
+  o.associators = {"ekf_slam/NN", "DJNN"};
+  o.out_dir = out;
+  o.jobs = 2;
+  o.progress = false;
+  return o;
+}
+
+// Two threads run the four runs; each must equal a serial run of the same world and seed.
+TEST(Evaluate, ParallelRunsEqualSerialRunsAndFilesAreWritten) {
+  const std::string dir = tempDir();
+  std::ostringstream log;
+  const Evaluation e = runEvaluation(tinyOptions(dir), log);
+  ASSERT_EQ(e.rows.size(), 4u);
+  EXPECT_EQ(e.rows[0].associator, "NN");
+  EXPECT_EQ(e.rows[2].associator, "DJNN");
+  const sim::World w = sim::makeWorld("tiny");
+  EXPECT_EQ(e.rows[0].seed, w.default_seed);
+  EXPECT_EQ(e.rows[1].seed, w.default_seed + 1);
+  EXPECT_EQ(e.rows[2].seed, w.default_seed);  // same seeds for every associator
+  for (const EvaluationRow* r : {&e.rows[2], &e.rows[3]}) {
+    auto djnn = std::make_shared<DJNN>();
+    djnn->configure(MapParameterSource(sim::associatorParametersFor(w, "DJNN")));
+    const RunMetrics serial = runSimulation(w, r->seed, sim::pipelineConfigFor(w), djnn);
+    EXPECT_EQ(r->metrics.counts.tp, serial.counts.tp);
+    EXPECT_EQ(r->metrics.counts.fp, serial.counts.fp);
+    EXPECT_EQ(r->metrics.counts.tn, serial.counts.tn);
+    EXPECT_EQ(r->metrics.map.landmarks, serial.map.landmarks);
+    EXPECT_DOUBLE_EQ(r->metrics.pose_rmse_m, serial.pose_rmse_m);
+    EXPECT_GT(r->metrics.counts.accuracy(), 0.9);
+  }
+
+  writeEvaluation(e, "evaluate --world tiny");
+  const std::string csv = readFile(dir + "/results.csv");
+  EXPECT_EQ(csv.rfind("world,associator,run,seed,accuracy,precision,recall,f1,", 0), 0u);
+  for (const char* column : {"landmarks", "true_landmarks_seen", "spurious_landmarks",
+                             "pose_rmse_m", "anees", "association_us_mean"}) {
+    EXPECT_NE(csv.find(std::string(",") + column + ","), std::string::npos) << column;
+  }
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 5);
+  const std::string md = readFile(dir + "/summary.md");
+  EXPECT_NE(md.find("## tiny"), std::string::npos);
+  EXPECT_NE(md.find("| DJNN |"), std::string::npos);
+  EXPECT_NE(md.find("| NN |"), std::string::npos);
+  EXPECT_NE(readFile(dir + "/nees.csv").find("tiny,DJNN,"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(Evaluate, OverridesReachTheAssociator) {
+  // A wider gate pairs at least as many true returns; a value out of range fails before running.
+  EvaluateOptions o = tinyOptions("/nonexistent");
+  o.associators = {"DJNN"};
+  o.runs = 1;
+  std::ostringstream log;
+  const RunMetrics base = runEvaluation(o, log).rows[0].metrics;
+  o.overrides = {{"*/individual_probability", "0.9999"}, {"DJNN/ambiguity_probability", "0.9999"}};
+  const RunMetrics wide = runEvaluation(o, log).rows[0].metrics;
+  EXPECT_GE(wide.counts.recall(), base.counts.recall());
+  EXPECT_NE(wide.counts.fn, base.counts.fn);
+  o.overrides = {{"DJNN/sensor_range", "-1"}};
+  EXPECT_THROW(runEvaluation(o, log), ParameterError);
+}
+
+TEST(Evaluate, UnknownAssociatorListsTheAvailableOnes) {
+  EvaluateOptions o = tinyOptions("/nonexistent");
+  o.associators = {"ekf_slam/DJN"};
+  std::ostringstream log;
+  try {
+    runEvaluation(o, log);
+    FAIL() << "no exception";
+  } catch (const UnknownAssociatorError& e) {
+    EXPECT_NE(std::string(e.what()).find("ekf_slam/DJNN"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Evaluate, CommandLine) {
+  const std::string dir = tempDir();
+  const std::string cmd = std::string(EVALUATE_BIN) + " --world tiny --runs 1 --associators DJNN" +
+                          " --no-progress --out " + dir + " > " + dir + "/stdout.txt 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << readFile(dir + "/stdout.txt");
+  EXPECT_TRUE(fs::exists(dir + "/summary.md"));
+  EXPECT_NE(readFile(dir + "/stdout.txt").find("| DJNN |"), std::string::npos);
+  const std::string bad = std::string(EVALUATE_BIN) + " --world tiny > /dev/null 2>&1";
+  const int rc = std::system(bad.c_str());
+  EXPECT_TRUE(WIFEXITED(rc) && WEXITSTATUS(rc) == 2);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

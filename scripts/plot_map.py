@@ -4,8 +4,9 @@
     /usr/bin/python3 scripts/plot_map.py DIR [--out FILE.png] [--title TEXT]
 
 Reads DIR/trajectory.csv, DIR/landmarks.csv, DIR/gps.csv (optional; the x_map, y_map columns are
-the fixes moved into the map frame by the best rigid alignment) and DIR/metrics.json (optional,
-for the title). Axes in metres, equal aspect. Exit status 3 when matplotlib is missing.
+the fixes moved into the map frame by the best rigid alignment), DIR/ground_truth.csv and
+DIR/true_landmarks.csv (optional, simulated bags) and DIR/metrics.json (optional, for the
+title). Axes in metres, equal aspect. Exit status 3 when matplotlib is missing.
 """
 import argparse
 import csv
@@ -51,6 +52,8 @@ def main():
         print(f"plot_map.py: {args.dir} lacks trajectory.csv or landmarks.csv", file=sys.stderr)
         return 1
     gps = read_csv(os.path.join(args.dir, "gps.csv"))
+    truth_path = read_csv(os.path.join(args.dir, "ground_truth.csv"))
+    truth_map = read_csv(os.path.join(args.dir, "true_landmarks.csv"))
     metrics = {}
     metrics_path = os.path.join(args.dir, "metrics.json")
     if os.path.exists(metrics_path):
@@ -62,6 +65,13 @@ def main():
         used = [r for r in gps if r["x_map"] not in ("", "nan")]
         ax.plot(column(used, "x_map"), column(used, "y_map"), ".", color="tab:orange",
                 markersize=2.5, alpha=0.6, label=f"GPS fixes, aligned ({len(used)})", zorder=1)
+    if truth_path:
+        ax.plot(column(truth_path, "x"), column(truth_path, "y"), ":", color="black",
+                linewidth=0.8, label="true path", zorder=1)
+    if truth_map:
+        ax.plot(column(truth_map, "x"), column(truth_map, "y"), "o", markerfacecolor="none",
+                color="gray", markersize=5, markeredgewidth=0.6,
+                label=f"true landmarks ({len(truth_map)})", zorder=1)
     ax.plot(column(traj, "x"), column(traj, "y"), "-", color="tab:blue", linewidth=0.8,
             label=f"vehicle (base_link), {len(traj)} scans", zorder=2)
     if lms:
@@ -94,6 +104,11 @@ def main():
         if metrics.get("gps_rmse_m") is not None:
             parts.append(f"GPS RMSE {metrics['gps_rmse_m']:.2f} m (aligned, "
                          f"{metrics.get('gps_points', '?')} fixes)")
+        truth = metrics.get("truth")
+        if truth:
+            parts.append(f"accuracy {truth['accuracy']:.3f}, {truth['spurious_landmarks']} spurious")
+            if truth.get("pose_rmse_m") is not None:
+                parts.append(f"pose RMSE {truth['pose_rmse_m']:.2f} m")
         if metrics.get("wall_time_s") is not None:
             parts.append(f"{metrics['wall_time_s']:.2f} s")
         title = f"EKF-SLAM, {assoc}: " + ", ".join(parts)

@@ -122,7 +122,7 @@ TEST(Conversions, ObservationCovarianceAndTruth) {
   EXPECT_TRUE(std::isnan(obs[1].descriptor));
   ASSERT_EQ(truth.size(), 3u);
   EXPECT_EQ(truth[0], 17);
-  EXPECT_EQ(truth[1], -1);
+  EXPECT_EQ(truth[1], kNoTruthId);  // -1 is a real id (the first mover)
   EXPECT_EQ(truth[2], -3);
 
   // No truth vector: fine too.

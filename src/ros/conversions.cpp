@@ -48,7 +48,7 @@ OdometryInput toOdometryInput(const nav_msgs::Odometry& msg) {
 std::vector<Observation> toObservations(const LandmarkObservationArray& msg,
                                         std::vector<std::int64_t>* truth_ids) {
   std::vector<Observation> out(msg.observations.size());
-  if (truth_ids) truth_ids->assign(msg.observations.size(), -1);
+  if (truth_ids) truth_ids->assign(msg.observations.size(), kNoTruthId);
   for (std::size_t i = 0; i < msg.observations.size(); ++i) {
     const LandmarkObservation& o = msg.observations[i];
     Observation& obs = out[i];

@@ -30,9 +30,12 @@
 #include <tf2_msgs/TFMessage.h>
 #include <nlohmann/json.hpp>
 
+#include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/LandmarkObservationArray.h"
+#include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/input_sequencer.h"
 #include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/simulated_run.h"
 #include "ekf_slam/core/slam_pipeline.h"
 #include "ekf_slam/core/trajectory_metrics.h"
 #include "ekf_slam/ros/associator_loader.h"
@@ -123,7 +126,10 @@ struct BagContents {
   std::vector<ObservationsInput> observation_sets;
   std::vector<StampedPoint> gps;
   std::vector<geometry_msgs::TransformStamped> tf_static;
+  std::vector<std::pair<double, Eigen::Vector3d>> ground_truth;    // (stamp, true pose)
+  std::vector<std::pair<std::int64_t, Eigen::Vector2d>> true_map;  // (truth id, position)
   bool has_truth_ids = false;
+  std::uint64_t observations_without_truth = 0;  // in a bag that has truth ids
 };
 
 BagContents readBag(const OfflineOptions& o) {
@@ -134,9 +140,9 @@ BagContents readBag(const OfflineOptions& o) {
     throw std::runtime_error("cannot open bag " + o.bag_path + ": " + e.what());
   }
   BagContents c;
-  rosbag::View view(
-      bag, rosbag::TopicQuery(std::vector<std::string>{
-               o.scan_topic, o.odom_topic, o.observations_topic, o.gps_topic, o.tf_static_topic}));
+  rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{
+                             o.scan_topic, o.odom_topic, o.observations_topic, o.gps_topic,
+                             o.tf_static_topic, o.ground_truth_topic, o.true_map_topic}));
   for (const rosbag::MessageInstance& m : view) {
     const std::string& topic = m.getTopic();
     if (topic == o.odom_topic) {
@@ -156,7 +162,10 @@ BagContents readBag(const OfflineOptions& o) {
       if (const auto msg = m.instantiate<LandmarkObservationArray>()) {
         ObservationsInput in{msg->header.stamp.toSec(), {}, {}, msg->header.frame_id};
         in.observations = toObservations(*msg, &in.truth_ids);
-        for (const auto id : in.truth_ids) c.has_truth_ids |= id != -1;
+        for (const auto id : in.truth_ids) {
+          c.has_truth_ids |= id != kNoTruthId;
+          c.observations_without_truth += id == kNoTruthId;
+        }
         c.arrivals.push_back(
             {Arrival::kObservations, static_cast<std::uint32_t>(c.observation_sets.size())});
         c.observation_sets.push_back(std::move(in));
@@ -165,6 +174,18 @@ BagContents readBag(const OfflineOptions& o) {
     } else if (topic == o.gps_topic) {
       if (const auto msg = m.instantiate<geometry_msgs::PointStamped>()) {
         c.gps.push_back({msg->header.stamp.toSec(), Eigen::Vector2d(msg->point.x, msg->point.y)});
+        continue;
+      }
+    } else if (topic == o.ground_truth_topic) {
+      if (const auto msg = m.instantiate<nav_msgs::Odometry>()) {
+        c.ground_truth.emplace_back(msg->header.stamp.toSec(), toOdometryInput(*msg).pose);
+        continue;
+      }
+    } else if (topic == o.true_map_topic) {
+      if (const auto msg = m.instantiate<LandmarkArray>()) {
+        c.true_map.clear();  // latched: the last one holds
+        for (const auto& l : msg->landmarks)
+          c.true_map.emplace_back(l.id, Eigen::Vector2d(l.x, l.y));
         continue;
       }
     } else if (topic == o.tf_static_topic) {
@@ -202,14 +223,25 @@ Eigen::Vector3d sensorOffset(const BagContents& c, const OfflineOptions& o,
   }
 }
 
-// Truth id of a processed observation: the pipeline may drop observations (range filter,
-// non-finite), so match it to the message's entry by its exact measurement.
-std::int64_t truthIdOf(const Observation& ob, const std::vector<std::int64_t>& truth_ids,
-                       const std::vector<Observation>& original) {
-  for (std::size_t i = 0; i < original.size() && i < truth_ids.size(); ++i) {
-    if (original[i].z == ob.z) return truth_ids[i];
+// True pose at `stamp` from the ground-truth track (sorted by stamp): exact at a sample,
+// interpolated between two, none outside the track.
+bool truePoseAt(const std::vector<std::pair<double, Eigen::Vector3d>>& track, double stamp,
+                Eigen::Vector3d* pose) {
+  const auto it = std::lower_bound(
+      track.begin(), track.end(), stamp,
+      [](const std::pair<double, Eigen::Vector3d>& s, double t) { return s.first < t; });
+  if (it == track.end()) return false;
+  if (std::abs(it->first - stamp) < 1e-6) {
+    *pose = it->second;
+    return true;
   }
-  return -1;
+  if (it == track.begin()) return false;
+  const auto& [t0, p0] = *(it - 1);
+  const auto& [t1, p1] = *it;
+  const double f = (stamp - t0) / (t1 - t0);
+  *pose = p0 + f * (p1 - p0);
+  (*pose)(2) = p0(2) + f * wrapAngle(p1(2) - p0(2));
+  return true;
 }
 
 // One trajectory.csv row.
@@ -338,6 +370,18 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
       o.dump_problem_scan ? o.out_dir + "/problem_" + std::to_string(*o.dump_problem_scan) + ".json"
                           : std::string();
 
+  // Ground-truth scoring (simulated bags): every observation must carry its truth id.
+  const bool score = bag.has_truth_ids && bag.observations_without_truth == 0 && bag.scans.empty();
+  if (bag.has_truth_ids && !score) {
+    log << "warning: the bag has truth ids, but " << bag.observations_without_truth
+        << " observations lack one" << (bag.scans.empty() ? "" : " and it has laser scans")
+        << ": no truth metrics\n";
+  }
+  std::sort(bag.ground_truth.begin(), bag.ground_truth.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  auto scorer = std::make_unique<RunScorer>();
+  std::vector<std::int64_t> truth;
+
   // One processed scan: bookkeeping and output rows.
   const auto record = [&](const ScanReport& r, const ObservationsInput* input) {
     extraction_s += r.extraction_s;
@@ -349,6 +393,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     const Eigen::Matrix3d P = pipeline.poseCovariance();
     poses.push_back({r.stamp, x, P.diagonal()});
     laser_track.push_back({r.stamp, pipeline.observationModel().sensorPose(x).head<2>()});
+    truth.clear();
     for (std::size_t i = 0; i < r.observations.size(); ++i) {
       const Observation& ob = r.observations[i];
       const Decision d =
@@ -356,9 +401,15 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
       const LandmarkId id =
           (d == Decision::kPaired || d == Decision::kNew) ? r.association.landmark[i] : kNoLandmark;
       const std::int64_t truth_id =
-          input ? truthIdOf(ob, input->truth_ids, input->observations) : -1;
+          input && i < r.input_index.size() ? input->truth_ids[r.input_index[i]] : kNoTruthId;
+      truth.push_back(truth_id);
       rows.push_back({r.scan, static_cast<std::uint32_t>(i), r.stamp, ob.z.x(), ob.z.y(),
                       ob.descriptor, d, id, truth_id});
+    }
+    if (score) {
+      Eigen::Vector3d true_pose;
+      const bool have_pose = truePoseAt(bag.ground_truth, r.stamp, &true_pose);
+      scorer->addScan(r, truth, x, P, have_pose ? &true_pose : nullptr);
     }
     if (o.dump_problem_scan && r.scan == *o.dump_problem_scan) {
       capturing->disarm();
@@ -390,6 +441,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
           log << "warning: time jumped backwards to " << std::fixed << item.stamp
               << std::defaultfloat << " s: the map is reset\n";
           pipeline.reset();
+          // Landmark ids start again: scoring restarts with the new map.
+          scorer = std::make_unique<RunScorer>();
           break;
         case InputSequencer<InputRef>::Kind::kScan:
           if (o.dump_problem_scan && scans_done == *o.dump_problem_scan) capturing->arm();
@@ -471,6 +524,19 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     }
   }
 
+  // --- ground truth (simulated bags), for the picture ------------------------------------------
+  if (!bag.ground_truth.empty()) {
+    std::ofstream g = openOutput(o.out_dir + "/ground_truth.csv");
+    g << "stamp,x,y,yaw\n";
+    for (const auto& [t, p] : bag.ground_truth)
+      g << t << ',' << p.x() << ',' << p.y() << ',' << p.z() << '\n';
+  }
+  if (!bag.true_map.empty()) {
+    std::ofstream g = openOutput(o.out_dir + "/true_landmarks.csv");
+    g << "truth_id,x,y\n";
+    for (const auto& [id, p] : bag.true_map) g << id << ',' << p.x() << ',' << p.y() << '\n';
+  }
+
   // --- GPS -------------------------------------------------------------------------------------
   TrajectoryError gps_error;
   if (!bag.gps.empty()) {
@@ -537,6 +603,31 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                    {"released_by_latency", sequencer.counters().released_by_latency},
                    {"invalid_stamps", invalid_stamps},
                    {"time_jumps", time_jumps}};
+  if (score) {
+    const RunMetrics m = scorer->metrics(&pipeline);
+    j["truth"] = {{"accuracy", m.counts.accuracy()},
+                  {"precision", m.counts.precision()},
+                  {"recall", m.counts.recall()},
+                  {"f1", m.counts.f1()},
+                  {"tp", m.counts.tp},
+                  {"fp", m.counts.fp},
+                  {"fn", m.counts.fn},
+                  {"tn", m.counts.tn},
+                  {"scored_scans", m.scans},
+                  {"landmarks", m.map.landmarks},
+                  {"true_landmarks_seen", m.map.true_landmarks_seen},
+                  {"true_landmarks_mapped", m.map.true_landmarks_mapped},
+                  {"spurious_landmarks", m.map.spurious},
+                  {"non_landmarks", m.map.non_landmarks},
+                  {"duplicates", m.map.duplicates},
+                  {"unknown_pairings", m.unknown_pairings},
+                  {"pose_rmse_m", number(m.pose_rmse_m)},
+                  {"heading_rmse_rad", number(m.heading_rmse_rad)},
+                  {"anees", number(m.anees)},
+                  {"nees_scans", m.nees_scans},
+                  {"association_us_mean", number(m.association_us_mean)},
+                  {"ground_truth_poses", bag.ground_truth.size()}};
+  }
   j["write_s"] = secondsSince(t_write);  // CSV files and this file, not the picture
   const std::string text = j.dump(2) + "\n";
   openOutput(o.out_dir + "/metrics.json") << text;
@@ -583,9 +674,13 @@ void printOfflineUsage(std::ostream& out, const std::string& program) {
   out << "usage: " << program
       << " --bag FILE --out DIR [--params YAML] [--associator NAME] [--dump-problem SCAN]\n"
          "       [--no-plot] [--no-progress] [--scan-topic T] [--odom-topic T]\n"
-         "       [--observations-topic T] [--gps-topic T] [--tf-static-topic T] [--base-frame F]\n"
+         "       [--observations-topic T] [--gps-topic T] [--tf-static-topic T]\n"
+         "       [--ground-truth-topic T] [--true-map-topic T] [--base-frame F]\n"
          "Replays a bag through the SLAM pipeline (no roscore) and writes trajectory.csv,\n"
          "landmarks.csv, associations.csv, gps.csv, metrics.json and map.png to DIR.\n"
+         "A simulated bag (observations with truth ids, /ground_truth) is also scored against\n"
+         "its truth: metrics.json 'truth' (accuracy, precision, recall, F1, spurious landmarks,\n"
+         "pose RMSE, ANEES).\n"
          "  YAML: pipeline parameters at the top level, each associator's under its name\n"
          "        (config/victoria_park.yaml)\n"
          "  NAME: e.g. DJNN or ekf_slam/DJNN (default: the YAML's 'associator', else "
@@ -621,6 +716,8 @@ bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions*
                           : a == "--observations-topic" ? &o->observations_topic
                           : a == "--gps-topic"          ? &o->gps_topic
                           : a == "--tf-static-topic"    ? &o->tf_static_topic
+                          : a == "--ground-truth-topic" ? &o->ground_truth_topic
+                          : a == "--true-map-topic"     ? &o->true_map_topic
                           : a == "--base-frame"         ? &o->base_frame
                                                         : nullptr;
     const bool dump = a == "--dump-problem";

@@ -2,6 +2,7 @@
 // offline runner so both feed the pipeline identically.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -27,8 +28,11 @@ geometry_msgs::Pose toPoseMsg(const Eigen::Vector3d& pose);
 /// nav_msgs/Odometry -> twist (v, w) and planar pose, stamped with header.stamp.
 OdometryInput toOdometryInput(const nav_msgs::Odometry& msg);
 
+/// Truth id of an observation that carries none (every negative id is a mover or clutter).
+constexpr std::int64_t kNoTruthId = std::numeric_limits<std::int64_t>::min();
+
 /// LandmarkObservationArray -> observations (R from the message's covariance, zeros when unset)
-/// and the truth ids (-1 for observations without one; kept aside for scoring only).
+/// and the truth ids (kNoTruthId for observations without one; kept aside for scoring only).
 std::vector<Observation> toObservations(const LandmarkObservationArray& msg,
                                         std::vector<std::int64_t>* truth_ids = nullptr);
 

@@ -6,7 +6,12 @@
 //   rosrun ekf_slam ekf_slam_offline --bag FILE --out DIR [--params YAML] [--associator NAME]
 //                                    [--dump-problem SCAN] [--no-plot] [--no-progress]
 //                                    [--scan-topic T] [--odom-topic T] [--observations-topic T]
-//                                    [--gps-topic T] [--base-frame F]
+//                                    [--gps-topic T] [--ground-truth-topic T]
+//                                    [--true-map-topic T] [--base-frame F]
+//
+// When every observation of the bag carries a truth id (bags written by `simulate`), the run is
+// scored against the truth as `evaluate` scores it (RunScorer): metrics.json gets a "truth"
+// object and associations.csv a truth_id column.
 #pragma once
 
 #include <cstdint>
@@ -32,6 +37,10 @@ struct OfflineOptions {
   std::string observations_topic = "/observations";
   std::string gps_topic = "/gps";
   std::string tf_static_topic = "/tf_static";
+  /// nav_msgs/Odometry with the true pose (simulated bags): pose metrics in metrics.json "truth".
+  std::string ground_truth_topic = "/ground_truth";
+  /// ekf_slam/LandmarkArray, latched, with the true landmarks (simulated bags): for the picture.
+  std::string true_map_topic = "/true_map";
   std::string base_frame = "base_link";
   bool plot = true;      ///< run scripts/plot_map.py
   bool progress = true;  ///< progress bar, only when stderr is a terminal

@@ -1,0 +1,177 @@
+// rostest (test/simulation.test): launch/simulation.launch plays the tiny world's bag into the
+// ekf_slam node. The test writes the bag and its YAML, starts the launch file with roslaunch on
+// rostest's master (rviz off, 10x playback) and checks that the node processed every observation
+// set and published a map whose landmarks lie on the true ones.
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "ekf_slam/AssociationStats.h"
+#include "ekf_slam/LandmarkArray.h"
+#include "ekf_slam/core/simulated_run.h"
+#include "ekf_slam/core/simulator.h"
+#include "ekf_slam/ros/simulation_bag.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// `roslaunch` as a child in its own process group, its output in a log file.
+class Roslaunch {
+ public:
+  Roslaunch(const std::vector<std::string>& args, const std::string& log) {
+    pid_ = fork();
+    if (pid_ == 0) {
+      setpgid(0, 0);
+      // Debian's python must come first (ROS_ON_DEBIAN.md, pitfall 1).
+      const char* path = std::getenv("PATH");
+      setenv("PATH", (std::string("/usr/bin:") + (path ? path : "")).c_str(), 1);
+      if (FILE* f = std::freopen(log.c_str(), "w", stdout)) dup2(fileno(f), STDERR_FILENO);
+      std::vector<char*> argv;
+      static std::string program = "roslaunch";
+      argv.push_back(program.data());
+      for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+      argv.push_back(nullptr);
+      execvp("roslaunch", argv.data());
+      _exit(127);
+    }
+  }
+  ~Roslaunch() {
+    if (pid_ <= 0) return;
+    // SIGINT lets roslaunch stop its nodes; SIGKILL the group if it does not.
+    kill(-pid_, SIGINT);
+    for (int i = 0; i < 150; ++i) {
+      if (waitpid(pid_, nullptr, WNOHANG) == pid_) return;
+      usleep(100000);
+    }
+    kill(-pid_, SIGKILL);
+    waitpid(pid_, nullptr, 0);
+  }
+  bool started() const { return pid_ > 0; }
+  /// True when it has exited already (it should run until we stop it).
+  bool exited() {
+    if (pid_ <= 0) return true;
+    if (waitpid(pid_, nullptr, WNOHANG) != pid_) return false;
+    pid_ = -1;
+    return true;
+  }
+
+ private:
+  pid_t pid_ = -1;
+};
+
+bool waitFor(const std::function<bool()>& done, double seconds) {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+  while (ros::ok() && ros::WallTime::now() < deadline) {
+    ros::spinOnce();
+    if (done()) return true;
+    ros::WallDuration(0.01).sleep();
+  }
+  ros::spinOnce();
+  return done();
+}
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
+TEST(SimulationLaunch, NodeMapsTheTinyWorld) {
+  std::string templ = (fs::temp_directory_path() / "ekf_slam_simlaunch_XXXXXX").string();
+  ASSERT_NE(mkdtemp(templ.data()), nullptr);
+  const fs::path tmp(templ);
+  ekf_slam::SimulationBagOptions options;
+  options.world = "tiny";
+  options.out_path = (tmp / "tiny.bag").string();
+  std::ostringstream log;
+  const ekf_slam::SimulationBagSummary bag = ekf_slam::writeSimulationBag(options, log);
+  ASSERT_GT(bag.observation_sets, 100u);
+
+  ros::NodeHandle nh;
+  ekf_slam::LandmarkArray map;
+  int maps = 0;
+  ros::Subscriber map_sub = nh.subscribe<ekf_slam::LandmarkArray>(
+      "/ekf_slam/map", 10, [&](const ekf_slam::LandmarkArray::ConstPtr& m) {
+        ++maps;
+        map = *m;
+      });
+  ekf_slam::AssociationStats last;
+  int reports = 0;
+  std::set<std::string> associators;
+  ros::Subscriber stats_sub = nh.subscribe<ekf_slam::AssociationStats>(
+      "/ekf_slam/associations", 1000, [&](const ekf_slam::AssociationStats::ConstPtr& m) {
+        ++reports;
+        last = *m;
+        associators.insert(m->associator);
+      });
+
+  const std::string launch_log = (tmp / "roslaunch.log").string();
+  bool processed_all = false;
+  {
+    // params: the launch file's default, the YAML simulate wrote beside the bag.
+    Roslaunch launch(
+        {"ekf_slam", "simulation.launch", "bag:=" + bag.bag_path, "rviz:=false", "rate:=10"},
+        launch_log);
+    ASSERT_TRUE(launch.started());
+    // roslaunch start-up, 2 s delay, 4 s of playback, the node's input timeout.
+    const auto done = [&] {
+      return reports > 0 && last.scan + 1 == bag.observation_sets && maps > 0 &&
+             map.header.stamp == last.header.stamp;
+    };
+    bool ended = false;
+    waitFor([&] { return done() || (ended = launch.exited()); }, 40.0);
+    processed_all = done();
+    EXPECT_FALSE(ended) << "roslaunch ended early:\n" << readFile(launch_log);
+  }
+  const std::string launch_output = readFile(launch_log);
+  fs::remove_all(tmp);
+  ASSERT_TRUE(processed_all) << reports << " reports, last scan " << last.scan << " of "
+                             << bag.observation_sets << "; roslaunch output:\n"
+                             << launch_output;
+
+  ASSERT_EQ(associators.size(), 1u);
+  EXPECT_EQ(*associators.begin(), "ekf_slam/DJNN");
+  // The last report's stamp is the last observation set's (sets come every observation period
+  // from stamp 0).
+  const ekf_slam::sim::World world = ekf_slam::sim::makeWorld("tiny");
+  EXPECT_NEAR(last.header.stamp.toSec(),
+              (bag.observation_sets - 1) * world.observation_period + ekf_slam::sim::kStampOffset,
+              1e-6);
+
+  EXPECT_EQ(map.header.frame_id, "map");
+  EXPECT_GE(map.landmarks.size(), 7u);
+  EXPECT_LE(map.landmarks.size(), 11u);
+  int found = 0;
+  for (const auto& p : world.landmarks) {
+    for (const auto& lm : map.landmarks) {
+      if (std::hypot(lm.x - p.x(), lm.y - p.y()) < 1.0) {
+        ++found;
+        break;
+      }
+    }
+  }
+  EXPECT_GE(found, 7) << "of " << world.landmarks.size() << " true landmarks mapped within 1 m";
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_simulation_launch");
+  ros::NodeHandle nh;  // keeps the node alive across the test
+  return RUN_ALL_TESTS();
+}

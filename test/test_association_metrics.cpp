@@ -115,6 +115,21 @@ TEST(AssociationScorer, MajorityIdentitySwitchesAndDecidesLaterOutcomes) {
   expectCounts(s.addScan({kMover}, {P}, {8}, {}), 0, 1, 0, 0);  // movers paired are always FP
 }
 
+// After a kidnapping a filter may build a second map of the same place: pairing with the
+// duplicate is not the right association, only the oldest representative is.
+TEST(AssociationScorer, PairingWithAYoungerDuplicateIsFalse) {
+  AssociationScorer s;
+  s.addScan({3}, {N}, {10}, {});
+  s.addScan({3}, {N}, {20}, {});                            // duplicate of landmark 3 (FN)
+  expectCounts(s.addScan({3}, {P}, {20}, {}), 0, 1, 0, 0);  // the duplicate: FP
+  EXPECT_EQ(s.duplicatePairings(), 1u);
+  expectCounts(s.addScan({3}, {P}, {10}, {}), 1, 0, 0, 0);  // the original: TP
+  // Once the original is removed the duplicate is the landmark's representative.
+  s.addScan({3}, {T}, {kNone}, {10});
+  expectCounts(s.addScan({3}, {P}, {20}, {}), 1, 0, 0, 0);
+  EXPECT_EQ(s.mapScore().duplicates, 0u);
+}
+
 TEST(AssociationScorer, RemovalsAndUnknownLandmarks) {
   AssociationScorer s;
   s.addScan({3}, {N}, {10}, {});

@@ -101,12 +101,18 @@ AssociationCounts AssociationScorer::addScan(const std::vector<LandmarkId>& trut
       if (it == tracks_.end()) {
         ++unknown_pairings_;
         o = Outcome::kFalsePositive;
+      } else if (t >= 0 && it->second.identity == t) {
+        // The true landmark is represented by its oldest map landmark; a younger duplicate (a
+        // second map of the same place, e.g. after a kidnapping) is not the right pairing.
+        const bool original = *holders_.at(t).begin() == landmark[i];
+        o = original ? Outcome::kTruePositive : Outcome::kFalsePositive;
+        duplicate_pairings_ += !original;
       } else {
-        o = t >= 0 && it->second.identity == t ? Outcome::kTruePositive : Outcome::kFalsePositive;
+        o = Outcome::kFalsePositive;
       }
     } else {
-      const auto it = identity_count_.find(t);
-      const bool mapped = t >= 0 && it != identity_count_.end() && it->second > 0;
+      const auto it = holders_.find(t);
+      const bool mapped = t >= 0 && it != holders_.end() && !it->second.empty();
       o = mapped ? Outcome::kFalseNegative : Outcome::kTrueNegative;
     }
     scan.add(o);
@@ -123,20 +129,20 @@ AssociationCounts AssociationScorer::addScan(const std::vector<LandmarkId>& trut
   for (LandmarkId id : removed) {
     const auto it = tracks_.find(id);
     if (it == tracks_.end()) continue;
-    --identity_count_[it->second.identity];
+    holders_[it->second.identity].erase(id);
     tracks_.erase(it);
   }
   counts_ += scan;
   return scan;
 }
 
-void AssociationScorer::setIdentity(Track* t, LandmarkId truth, bool is_new) {
+void AssociationScorer::setIdentity(LandmarkId id, Track* t, LandmarkId truth, bool is_new) {
   if (!is_new) {
-    --identity_count_[t->identity];
+    holders_[t->identity].erase(id);
     ++identity_switches_;
   }
   t->identity = truth;
-  ++identity_count_[truth];
+  holders_[truth].insert(id);
 }
 
 void AssociationScorer::vote(LandmarkId id, LandmarkId truth) {
@@ -144,7 +150,7 @@ void AssociationScorer::vote(LandmarkId id, LandmarkId truth) {
   Track& t = it->second;
   if (inserted) {
     t.votes.emplace_back(truth, 1);
-    setIdentity(&t, truth, true);
+    setIdentity(id, &t, truth, true);
     return;
   }
   std::uint32_t mine = 0, leader = 0;
@@ -160,13 +166,13 @@ void AssociationScorer::vote(LandmarkId id, LandmarkId truth) {
     t.votes.emplace_back(truth, 1);
     mine = 1;
   }
-  if (truth != t.identity && mine > leader) setIdentity(&t, truth, false);  // ties keep it
+  if (truth != t.identity && mine > leader) setIdentity(id, &t, truth, false);  // ties keep it
 }
 
 void AssociationScorer::addKnownLandmark(LandmarkId id, LandmarkId truth) {
   const auto it = tracks_.find(id);
   if (it != tracks_.end()) {
-    --identity_count_[it->second.identity];
+    holders_[it->second.identity].erase(id);
     tracks_.erase(it);
   }
   vote(id, truth);
@@ -185,7 +191,8 @@ MapScore AssociationScorer::mapScore() const {
   MapScore s;
   s.landmarks = tracks_.size();
   s.true_landmarks_seen = seen_.size();
-  for (const auto& [truth, n] : identity_count_) {
+  for (const auto& [truth, ids] : holders_) {
+    const std::size_t n = ids.size();
     if (n == 0) continue;
     if (truth >= 0) {
       ++s.true_landmarks_mapped;

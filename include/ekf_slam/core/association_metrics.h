@@ -8,8 +8,10 @@
 //   scorer.counts().accuracy();  scorer.mapScore().spurious;
 //
 // Per observation (positive = paired with an existing map landmark):
-//   TP  paired with the landmark whose identity is the observation's truth;
-//   FP  paired with a landmark of another identity, or a mover / clutter return paired at all;
+//   TP  paired with the landmark whose identity is the observation's truth (the oldest one when
+//       several share it: the true landmark's representative);
+//   FP  paired with a landmark of another identity or with a younger duplicate of the right one,
+//       or a mover / clutter return paired at all;
 //   FN  a static landmark's return left unpaired (new / tentative / rejected) although some map
 //       landmark already has that identity;
 //   TN  anything else left unpaired (a landmark not in the map yet, a mover, clutter).
@@ -20,6 +22,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <set>
 #include <unordered_map>
 #include <vector>
 
@@ -88,6 +91,8 @@ class AssociationScorer {
   /// Pairings with a landmark the scorer never saw created (scored FP: unverifiable); the
   /// landmark is tracked from then on.
   std::uint64_t unknownPairings() const { return unknown_pairings_; }
+  /// Pairings scored FP because they went to a younger duplicate of the right landmark.
+  std::uint64_t duplicatePairings() const { return duplicate_pairings_; }
   /// Times a landmark's majority identity changed.
   std::uint64_t identitySwitches() const { return identity_switches_; }
   /// Majority identity of map landmark `id`; false when it is not tracked.
@@ -100,15 +105,17 @@ class AssociationScorer {
     LandmarkId identity = 0;
   };
   void vote(LandmarkId id, LandmarkId truth);
-  void setIdentity(Track* t, LandmarkId truth, bool is_new);
+  void setIdentity(LandmarkId id, Track* t, LandmarkId truth, bool is_new);
 
   std::unordered_map<LandmarkId, Track> tracks_;
-  std::unordered_map<LandmarkId, std::uint32_t> identity_count_;  ///< truth -> landmarks
-  std::unordered_map<LandmarkId, char> seen_;                     ///< static truths observed
+  /// truth -> the map landmarks that have it as identity, oldest (lowest id) first.
+  std::unordered_map<LandmarkId, std::set<LandmarkId>> holders_;
+  std::unordered_map<LandmarkId, char> seen_;  ///< static truths observed
   AssociationCounts counts_;
   std::uint64_t scans_ = 0;
   std::uint64_t unknown_pairings_ = 0;
   std::uint64_t identity_switches_ = 0;
+  std::uint64_t duplicate_pairings_ = 0;
 };
 
 // --- pose accuracy and consistency

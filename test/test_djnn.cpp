@@ -1,5 +1,6 @@
 // DJNN (seed 000 section 3): interference cases 1-4, evidence counter T (eq. 9), local region
 // (eq. 10), cost independent of the far map, and the hand-made association problems.
+#include <algorithm>
 #include <map>
 #include <string>
 #include <vector>
@@ -20,9 +21,17 @@ using assoc_test::diag2;
 using assoc_test::poseCov;
 using assoc_test::Scene;
 
+// The paper's settings (0.95 gates, admission when seen twice, no static / bias tests): the
+// hand-made problems below are worked out for them. `params` override them.
 DJNN makeDjnn(const std::map<std::string, std::string>& params = {}) {
+  std::map<std::string, std::string> p = {{"individual_probability", "0.95"},
+                                          {"ambiguity_probability", "0.95"},
+                                          {"admit_evidence", "2"},
+                                          {"static_test", "false"},
+                                          {"bias_test", "false"}};
+  for (const auto& kv : params) p[kv.first] = kv.second;
   DJNN d;
-  d.configure(MapParameterSource(params));
+  d.configure(MapParameterSource(p));
   return d;
 }
 
@@ -572,11 +581,132 @@ TEST(DJNN, ParametersAreValidatedAndNamed) {
   EXPECT_TRUE(fails({{"wide_gate_factor", "0.5"}}, "wide_gate_factor"));
   EXPECT_TRUE(fails({{"ambiguity_probability", "0.9"}}, "ambiguity_probability"));
   EXPECT_TRUE(fails({{"field_of_view", "0"}}, "field_of_view"));
+  EXPECT_TRUE(fails({{"static_probability", "1"}}, "static_probability"));
+  EXPECT_TRUE(fails({{"static_jitter", "-0.1"}}, "static_jitter"));
+  EXPECT_TRUE(fails({{"bias_probability", "0"}}, "bias_probability"));
+  EXPECT_TRUE(fails({{"bias_window", "0.5"}}, "bias_window"));
+  EXPECT_TRUE(fails({{"bias_min_pairings", "0"}}, "bias_min_pairings"));
   const DJNN d = makeDjnn({{"sensor_range", "25"}, {"range_margin", "2"}});
   EXPECT_EQ(d.params().sensor_range, 25.0);
   EXPECT_EQ(d.params().range_margin, 2.0);
   EXPECT_EQ(d.params().admit_evidence, 2);
   EXPECT_NEAR(d.params().field_of_view, M_PI, 1e-12);
+}
+
+TEST(DJNN, DefaultsAreTheDocumentedOnes) {
+  const DJNN d;  // docs/djnn.md, "Parameters"
+  EXPECT_EQ(d.params().individual_probability, 0.999);
+  EXPECT_EQ(d.params().ambiguity_probability, 0.999);
+  EXPECT_EQ(d.params().admit_evidence, 7);
+  EXPECT_TRUE(d.params().static_test);
+  EXPECT_EQ(d.params().static_probability, 0.9);
+  EXPECT_EQ(d.params().static_jitter, 0.0);
+  EXPECT_TRUE(d.params().bias_test);
+  EXPECT_EQ(d.params().bias_probability, 0.999);
+  EXPECT_EQ(d.params().bias_window, 5.0);
+  EXPECT_EQ(d.params().bias_min_pairings, 3);
+}
+
+// --- dynamic filtering: static test of tentative features, bias test of landmarks -------------
+
+// A sharp scene (innovations ~ R) with an empty map.
+Scene staticTestScene() {
+  Scene s = sharpScene(diag2(0.05, deg2rad(0.5)));
+  s.build();
+  return s;
+}
+
+TEST(DJNN, StaticFeatureWithNoiseIsAdmittedAfterAdmitEvidenceSightings) {
+  Scene s = staticTestScene();
+  DJNN d = makeDjnn({{"static_test", "true"}, {"admit_evidence", "5"}});
+  // Sightings scattered by about one sigma (0.05 m range, 0.09 m across at 10 m) around (10, 0).
+  const double dy[] = {0.0, 0.08, -0.06, 0.03, -0.09};
+  for (int k = 0; k < 5; ++k) {
+    clearScan(&s);
+    s.observePoint({10.0 + 0.04 * (k % 2 ? 1 : -1), dy[k]});
+    const AssociationResult r = d.associate(s.context(0.2 * k));
+    EXPECT_EQ(r.decision[0], k < 4 ? Decision::kTentative : Decision::kNew) << k;
+  }
+  EXPECT_EQ(d.stats().static_restarts, 0u);
+}
+
+// A slow mover (0.25 m per scan across the line of sight, 1.25 m/s at 5 Hz) passes the position
+// gate (which allows for the pose uncertainty) every scan and is admitted by the evidence counter
+// alone; the static test keeps it out.
+TEST(DJNN, SlowMoverIsNotAdmittedWithTheStaticTest) {
+  auto run = [](bool static_test) {
+    Scene s;
+    s.pose_cov = poseCov(0.2, 0.2, 0.01);
+    s.R = diag2(0.1, deg2rad(1.0));
+    s.build();
+    DJNN d = makeDjnn({{"static_test", static_test ? "true" : "false"}, {"admit_evidence", "5"}});
+    int admitted = 0;
+    for (int k = 0; k < 12; ++k) {
+      clearScan(&s);
+      s.observePoint({10.0, -1.5 + 0.25 * k});
+      const AssociationResult r = d.associate(s.context(0.2 * k));
+      if (r.decision[0] == Decision::kNew) {
+        ++admitted;
+        break;
+      }
+    }
+    return std::make_pair(admitted, d.stats().static_restarts);
+  };
+  EXPECT_EQ(run(false).first, 1);  // the plain counter admits it
+  const auto with_test = run(true);
+  EXPECT_EQ(with_test.first, 0);
+  EXPECT_GT(with_test.second, 0u);
+}
+
+TEST(DJNN, StaticJitterWidensTheStaticTest) {
+  // The same slow mover fits a static point once each sighting may be off by 0.5 m.
+  Scene s = staticTestScene();
+  DJNN d = makeDjnn({{"static_test", "true"}, {"admit_evidence", "5"}, {"static_jitter", "0.5"}});
+  Decision last = Decision::kRejected;
+  for (int k = 0; k < 5; ++k) {
+    clearScan(&s);
+    s.observePoint({10.0, -0.6 + 0.1 * k});
+    last = d.associate(s.context(0.2 * k)).decision[0];
+  }
+  EXPECT_EQ(last, Decision::kNew);
+}
+
+// A landmark that entered the map from a mover: each return is a little further along. The bias
+// test withdraws the pairing and removes the landmark; a static landmark observed with zero-mean
+// errors keeps its pairings.
+TEST(DJNN, LandmarkFollowingAMoverIsRemovedByTheBiasTest) {
+  auto run = [](bool bias_test, double step, int scans, std::vector<Decision>* decisions) {
+    Scene s = sharpScene(diag2(0.05, deg2rad(0.5)));
+    const int a = s.addLandmark({10, 0}, diag2(0.01, 0.01));
+    s.build();
+    DJNN d = makeDjnn({{"bias_test", bias_test ? "true" : "false"},
+                       {"individual_probability", "0.999"},
+                       {"ambiguity_probability", "0.999"}});
+    std::vector<LandmarkId> removed;
+    for (int k = 1; k <= scans; ++k) {
+      clearScan(&s);
+      // Moving: step k along y. Static: alternating +-0.05 m along y (about half a sigma).
+      const double y = step > 0.0 ? step * k : (k % 2 ? 0.05 : -0.05);
+      s.observePoint({10.0, y}, nullptr, a);
+      const AssociationResult r = d.associate(s.context(0.2 * k));
+      decisions->push_back(r.decision[0]);
+      removed.insert(removed.end(), r.remove.begin(), r.remove.end());
+      if (!r.remove.empty()) break;
+    }
+    return removed;
+  };
+  std::vector<Decision> dec;
+  // Without the test the mover's first 5 returns are all paired (FP).
+  EXPECT_TRUE(run(false, 0.05, 5, &dec).empty());
+  EXPECT_EQ(std::count(dec.begin(), dec.end(), Decision::kPaired), 5);
+  dec.clear();
+  const std::vector<LandmarkId> removed = run(true, 0.05, 5, &dec);
+  ASSERT_EQ(removed.size(), 1u);
+  EXPECT_EQ(removed[0], Scene::idOf(0));
+  EXPECT_EQ(dec.back(), Decision::kRejected);  // the pairing of the detecting scan is withdrawn
+  dec.clear();
+  EXPECT_TRUE(run(true, 0.0, 30, &dec).empty());
+  EXPECT_EQ(std::count(dec.begin(), dec.end(), Decision::kPaired), 30);
 }
 
 TEST(DJNN, ResetForgetsState) {

@@ -76,12 +76,22 @@ void DJNN::configure(const ParameterSource& params) {
       r.probability("tentative_gate_probability", def.tentative_gate_probability);
   p.tentative_timeout = r.nonNegative("tentative_timeout", def.tentative_timeout);
   p.penalty_region = r.text("penalty_region", def.penalty_region, {"sensor", "valid"});
+  p.static_test = r.flag("static_test", def.static_test);
+  p.static_probability = r.probability("static_probability", def.static_probability);
+  p.static_jitter = r.nonNegative("static_jitter", def.static_jitter);
+  p.bias_test = r.flag("bias_test", def.bias_test);
+  p.bias_probability = r.probability("bias_probability", def.bias_probability);
+  p.bias_window = r.inRange("bias_window", def.bias_window, 1.0, 1.0e6);
+  p.bias_min_pairings = r.integer("bias_min_pairings", def.bias_min_pairings, 1, kMaxEvidence);
 
   p_ = p;
   gate_ = chi2Quantile(p_.individual_probability, 2);
   wide_gate_ = p_.wide_gate_factor * gate_;
   ambiguity_gate_ = chi2Quantile(p_.ambiguity_probability, 2);
   tentative_gate_ = chi2Quantile(p_.tentative_gate_probability, 2);
+  static_gate_ = Chi2Table(p_.static_probability, 2 * std::max(p_.admit_evidence, 2));
+  bias_gate_ = chi2Quantile(p_.bias_probability, 2);
+  bias_decay_ = 1.0 - 1.0 / p_.bias_window;
   cos_half_fov_ = std::cos(0.5 * p_.field_of_view);
   sin_half_fov_ = std::sin(0.5 * p_.field_of_view);
   tentative_cell_ = 0.5 * (p_.sensor_range + p_.range_margin);
@@ -97,6 +107,7 @@ void DJNN::configure(const ParameterSource& params) {
 
 void DJNN::reset() {
   evidence_.clear();
+  bias_.clear();
   tentative_.clear();
   free_slots_.clear();
   tentative_cells_.clear();
@@ -377,10 +388,34 @@ void DJNN::updateMapEvidence(const AssociationContext& ctx, AssociationResult* r
   const Eigen::Vector2d origin = sensor_pose_.head<2>();
   const double c = std::cos(sensor_pose_(2));
   const double s = std::sin(sensor_pose_(2));
+  if (p_.bias_test) {
+    // A landmark whose innovations keep pointing one way follows a moving object: its pairing of
+    // this scan is withdrawn (the return is rejected, not made tentative) and it leaves the map.
+    const int m = static_cast<int>(assign_.size());
+    for (int i = 0; i < m; ++i) {
+      const int k = assign_[i];
+      if (k < 0 || !biased(ctx, i, k)) continue;
+      const LandmarkId id = ctx.landmarkId(cand_[k]);
+      result->decision[i] = Decision::kRejected;
+      result->landmark[i] = kNoLandmark;
+      assign_[i] = -1;
+      gated_[i] = 1;
+      count_[k] = 0;
+      result->remove.push_back(id);
+      evidence_.erase(id);
+      bias_.erase(id);
+      ++stats_.removed;
+      ++stats_.biased_removed;
+    }
+  }
   // Only the local region is visited: a landmark outside it cannot be inside the sensor region,
   // so its r_k is 0 anyway.
   for (int k = 0; k < static_cast<int>(cand_.size()); ++k) {
     const LandmarkId id = ctx.landmarkId(cand_[k]);
+    if (p_.bias_test &&
+        std::find(result->remove.begin(), result->remove.end(), id) != result->remove.end()) {
+      continue;  // removed by the bias test above
+    }
     auto it = evidence_.try_emplace(id, p_.initial_evidence).first;
     int r = 0;
     if (count_[k] > 0) {
@@ -394,6 +429,7 @@ void DJNN::updateMapEvidence(const AssociationContext& ctx, AssociationResult* r
     if (it->second <= p_.remove_evidence) {
       result->remove.push_back(id);
       evidence_.erase(it);
+      bias_.erase(id);
       ++stats_.removed;
     }
   }
@@ -403,6 +439,28 @@ void DJNN::updateMapEvidence(const AssociationContext& ctx, AssociationResult* r
       it = ekf.contains(it->first) ? std::next(it) : evidence_.erase(it);
     }
   }
+  if (bias_.size() > 2 * ekf.numLandmarks() + 64) {
+    for (auto it = bias_.begin(); it != bias_.end();) {
+      it = ekf.contains(it->first) ? std::next(it) : bias_.erase(it);
+    }
+  }
+}
+
+// The innovation v of a static landmark in a consistent filter is white with covariance S, so a
+// discounted sum of them stays within chi2(2); a landmark dragged along by a mover sees the
+// mover's displacement in every innovation. Summed in the world frame (G = d(position)/dz = H_m^-1)
+// because the sensor frame turns between scans.
+bool DJNN::biased(const AssociationContext& ctx, int obs, int cand) {
+  const AssociationContext::Individual ind = ctx.individual(obs, cand_[cand]);
+  Matrix23d G_pose;
+  Eigen::Matrix2d G_obs;
+  ctx.model().inverse(ctx.robotPose(), ctx.observations()[obs].z, &G_pose, &G_obs);
+  Bias& b = bias_[ctx.landmarkId(cand_[cand])];
+  b.sum = bias_decay_ * b.sum + G_obs * ind.v;
+  b.cov = (bias_decay_ * bias_decay_) * b.cov + G_obs * ind.S * G_obs.transpose();
+  ++b.pairings;
+  if (b.pairings < p_.bias_min_pairings) return false;
+  return b.sum.dot(b.cov.inverse() * b.sum) > bias_gate_;
 }
 
 DJNN::CellKey DJNN::tentativeKey(const Eigen::Vector2d& p) const {
@@ -445,6 +503,8 @@ int DJNN::addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, d
   t.evidence = bump(0, 1);  // seen now: r_k = +1
   t.last_seen = stamp;
   t.alive = true;
+  t.sightings = 1;
+  t.residual = 0.0;
   tentative_cells_[tentativeKey(pos)].push_back(slot);
   return slot;
 }
@@ -494,6 +554,9 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
   const double c = std::cos(sensor_pose_(2));
   const double s = std::sin(sensor_pose_(2));
 
+  const Eigen::Matrix2d jitter =
+      p_.static_test ? (p_.static_jitter * p_.static_jitter * Eigen::Matrix2d::Identity()).eval()
+                     : Eigen::Matrix2d::Zero().eval();
   queryTentatives(origin, p_.sensor_range + p_.range_margin, &tent_near_);
   tent_hit_.assign(tent_near_.size(), 0);
 
@@ -535,9 +598,29 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     const int slot = tent_near_[cnd.local];
     seen[cnd.obs].slot = slot;
     Tentative& t = tentative_[slot];
-    // Fuse the two sightings (information-weighted on their observation noise).
-    const Eigen::Matrix2d K = t.cov * (t.cov + seen[cnd.obs].cov_obs).inverse();
-    const Eigen::Vector2d fused = t.position + K * (seen[cnd.obs].pos - t.position);
+    const Eigen::Vector2d& z = seen[cnd.obs].pos;
+    const Eigen::Matrix2d C = seen[cnd.obs].cov_obs + jitter;
+    if (p_.static_test) {
+      // Recursive least-squares residual of the sightings about one static point: the new
+      // sighting's normalised distance to the fused position of the earlier ones.
+      const Eigen::Vector2d e = z - t.position;
+      t.residual += e.dot((t.cov + C).inverse() * e);
+      ++t.sightings;
+      if (t.residual > static_gate_(2 * (t.sightings - 1))) {
+        // Not one static point (a slow mover): its history is void; restart from this sighting.
+        t.cov = C;
+        t.evidence = bump(0, 1);
+        t.last_seen = stamp;
+        t.sightings = 1;
+        t.residual = 0.0;
+        moveTentative(slot, z);
+        ++stats_.static_restarts;
+        continue;
+      }
+    }
+    // Fuse the sightings (information-weighted on their observation noise).
+    const Eigen::Matrix2d K = t.cov * (t.cov + C).inverse();
+    const Eigen::Vector2d fused = t.position + K * (z - t.position);
     t.cov = (Eigen::Matrix2d::Identity() - K) * t.cov;
     t.cov = 0.5 * (t.cov + t.cov.transpose()).eval();
     t.evidence = bump(t.evidence, 1);
@@ -565,7 +648,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
   for (int i = 0; i < m; ++i) {
     if (!seen[i].eligible) continue;
     int slot = seen[i].slot;
-    if (slot < 0) slot = addTentative(seen[i].pos, seen[i].cov_obs, stamp);
+    if (slot < 0) slot = addTentative(seen[i].pos, seen[i].cov_obs + jitter, stamp);
     const int t = tentative_[slot].evidence;
     if (t >= p_.admit_evidence) {
       result->decision[i] = Decision::kNew;

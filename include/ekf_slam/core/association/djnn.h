@@ -1,7 +1,9 @@
 // Dynamic Joint Nearest Neighbour, DJNN (seed 000 section 3; ALGORITHMS.md section 4): NN
 // restricted to the local region around the sensor (eq. 10), interference between pairings
 // resolved with the observation compensation v_bar (eq. 6-8, cases 1-4), and an evidence counter
-// T (eq. 9) that admits features seen twice and removes landmarks missed more often than seen.
+// T (eq. 9) that admits features seen often enough and removes landmarks missed more often than
+// seen; plus dynamic filtering: a static-consistency test of tentative features and an
+// innovation-bias test of landmarks (keeps slow movers out of the map).
 // Parameters, defaults and the points the paper leaves open: docs/djnn.md.
 #pragma once
 
@@ -13,6 +15,7 @@
 
 #include <Eigen/Core>
 
+#include "ekf_slam/core/chi2.h"
 #include "ekf_slam/core/data_association.h"
 
 namespace ekf_slam {
@@ -38,6 +41,8 @@ class DJNN : public DataAssociation {
     std::uint64_t admitted = 0;           ///< kNew decisions
     std::uint64_t removed = 0;            ///< landmarks returned in result.remove
     std::uint64_t tentative_dropped = 0;
+    std::uint64_t static_restarts = 0;  ///< tentative features restarted by the static test
+    std::uint64_t biased_removed = 0;   ///< landmarks removed by the innovation-bias test
   };
 
   /// Parameters (names as read in configure(); defaults in docs/djnn.md).
@@ -46,12 +51,12 @@ class DJNN : public DataAssociation {
     double range_margin = 3.0;    ///< d [m]
     double angle_margin = 0.1;    ///< dphi [rad]
     double field_of_view = M_PI;  ///< full angle about the sensor x axis [rad]
-    double individual_probability = 0.95;
+    double individual_probability = 0.999;
     /// An unpaired observation within chi2(2, p) of a local landmark (plain or compensated) is
     /// ambiguous and rejected rather than made tentative; >= individual_probability.
-    double ambiguity_probability = 0.95;
+    double ambiguity_probability = 0.999;
     double wide_gate_factor = 3.0;  ///< eq. 8
-    int admit_evidence = 2;
+    int admit_evidence = 7;
     int remove_evidence = 0;
     int initial_evidence = 2;  ///< T of map landmarks DJNN has not seen yet
     int max_evidence = 0;      ///< cap on T (0: unbounded, as in the paper)
@@ -60,6 +65,22 @@ class DJNN : public DataAssociation {
     /// Where a missed feature scores r_k = -1 (eq. 9): "sensor" = range R and the field of view;
     /// "valid" = the valid region of eq. 7 (shrunk by the margins).
     std::string penalty_region = "sensor";
+    /// Static-consistency test of a tentative feature (dynamic filtering of pseudo-features):
+    /// the sightings must fit one static point, sum of normalised residuals about their fused
+    /// position <= chi2(2 (k - 1), static_probability); else the feature restarts from the
+    /// latest sighting. static_jitter [m] (isotropic std dev per sighting) stands for the pose
+    /// estimate's jitter between sightings.
+    bool static_test = true;
+    double static_probability = 0.9;
+    double static_jitter = 0.0;
+    /// Innovation-bias test of map landmarks: a discounted sum a = sum lambda^k G v of the world-
+    /// frame innovations (lambda = 1 - 1 / bias_window) with covariance B = sum lambda^2k G S G^T;
+    /// a^T B^-1 a > chi2(2, bias_probability) after bias_min_pairings pairings marks a landmark
+    /// that follows a moving object: it is removed and its pairing of this scan withdrawn.
+    bool bias_test = true;
+    double bias_probability = 0.999;
+    double bias_window = 5.0;
+    int bias_min_pairings = 3;
   };
 
   DJNN();
@@ -85,6 +106,14 @@ class DJNN : public DataAssociation {
     int evidence = 0;
     double last_seen = 0.0;
     bool alive = false;
+    int sightings = 0;      ///< fused into position since the last (re)start
+    double residual = 0.0;  ///< sum of normalised residuals of the sightings (static test)
+  };
+  /// Innovation-bias state of a map landmark (bias test).
+  struct Bias {
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+    int pairings = 0;
   };
   using CellKey = std::int64_t;
   /// An unpaired observation of this scan as a candidate feature (eq. 9).
@@ -121,6 +150,8 @@ class DJNN : public DataAssociation {
 
   // --- evidence (eq. 9) ----------------------------------------------------------------------
   void updateMapEvidence(const AssociationContext& ctx, AssociationResult* result);
+  /// Bias test of the landmark paired with observation `obs` (candidate `cand`); true = biased.
+  bool biased(const AssociationContext& ctx, int obs, int cand);
   void handleUnpaired(const AssociationContext& ctx, AssociationResult* result);
   int addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, double stamp);
   void dropTentative(int slot);
@@ -137,6 +168,8 @@ class DJNN : public DataAssociation {
   double cos_half_fov_ = 0.0, sin_half_fov_ = 1.0;
   double tentative_cell_ = 10.0;
   double penalty_range_ = 30.0, penalty_margin_ = 0.0;
+  Chi2Table static_gate_;
+  double bias_gate_ = 0.0, bias_decay_ = 0.8;
 
   // Per-scan scratch, reused between calls to avoid heap churn.
   Eigen::Vector3d sensor_pose_ = Eigen::Vector3d::Zero();
@@ -157,6 +190,7 @@ class DJNN : public DataAssociation {
 
   // State kept between scans.
   std::unordered_map<LandmarkId, int> evidence_;
+  std::unordered_map<LandmarkId, Bias> bias_;
   std::vector<Tentative> tentative_;
   std::vector<int> free_slots_;
   std::unordered_map<CellKey, std::vector<int>> tentative_cells_;

@@ -1,31 +1,44 @@
 #!/usr/bin/env bash
 # The main demo: from a fresh Debian 12 machine, installs the dependencies, builds, converts the
 # Victoria Park data ($VP_DATA, see scripts/env.sh) into a bag under build/, runs the offline
-# runner with DJNN and prints the metrics and where the map picture is.
+# runner with DJNN and prints the metrics and where the map picture is. Without the data it runs
+# the simulated djnn_strong world instead (simulate, run, score against the truth).
 #   scripts/demo.sh [ASSOCIATOR]      (default DJNN)
+# Env: DEMO=simulation forces the simulated world; WORLD (djnn_strong), SEED (1).
 set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 ASSOCIATOR=${1:-DJNN}
 
-if [[ ! -f "$VP_DATA/aa3_dr.mat" ]]; then
+mode=${DEMO:-victoria_park}
+if [[ $mode == victoria_park && ! -f "$VP_DATA/aa3_dr.mat" ]]; then
   cat >&2 <<MSG
 demo.sh: the Victoria Park data set was not found in $VP_DATA
   (needs aa3_dr.mat, aa3_gpsx.mat and victoria_park_ascii/; see the README, "Data").
-  Set VP_DATA=/path/to/victoria_park and run again.
+  Running the simulated world ${WORLD:-djnn_strong} instead (set VP_DATA to use the data set).
 MSG
-  exit 1
+  mode=simulation
 fi
 
 "$EKF_SLAM_ROOT/scripts/build.sh"
 source "$EKF_SLAM_BUILD/devel/setup.bash"
 
-bag="$EKF_SLAM_BUILD/vp.bag"
-if [[ ! -f "$bag" || "$VP_DATA/aa3_dr.mat" -nt "$bag" ]]; then
-  rosrun ekf_slam victoria_park_to_bag --data "$VP_DATA" --out "$bag"
+if [[ $mode == simulation ]]; then
+  world=${WORLD:-djnn_strong}
+  seed=${SEED:-1}
+  bag="$EKF_SLAM_BUILD/sim_${world}_${seed}.bag"
+  rosrun ekf_slam simulate --world "$world" --seed "$seed" --out "$bag"
+  params="${bag%.bag}.yaml"
+  out="$EKF_SLAM_BUILD/sim_${world}_${seed}_$ASSOCIATOR"
+else
+  bag="$EKF_SLAM_BUILD/vp.bag"
+  if [[ ! -f "$bag" || "$VP_DATA/aa3_dr.mat" -nt "$bag" ]]; then
+    rosrun ekf_slam victoria_park_to_bag --data "$VP_DATA" --out "$bag"
+  fi
+  params="$EKF_SLAM_ROOT/config/victoria_park.yaml"
+  out="$EKF_SLAM_BUILD/vp_$ASSOCIATOR"
 fi
-out="$EKF_SLAM_BUILD/vp_$ASSOCIATOR"
-rosrun ekf_slam ekf_slam_offline --bag "$bag" --params "$EKF_SLAM_ROOT/config/victoria_park.yaml" \
-  --associator "$ASSOCIATOR" --out "$out"
+rosrun ekf_slam ekf_slam_offline --bag "$bag" --params "$params" --associator "$ASSOCIATOR" \
+  --out "$out" > /dev/null
 
 /usr/bin/python3 - "$out/metrics.json" <<'PY'
 import json, sys
@@ -37,11 +50,20 @@ print(f"landmarks         {m['landmarks']}")
 if m.get("gps_rmse_m") is not None:
     print(f"GPS RMSE          {m['gps_rmse_m']:.2f} m after alignment ({m['gps_points']} fixes; "
           f"median error {m['gps_median_error_m']:.2f} m)")
+t = m.get("truth")
+if t:
+    print(f"accuracy          {t['accuracy']:.4f}  (precision {t['precision']:.4f}, "
+          f"recall {t['recall']:.4f}, F1 {t['f1']:.4f}; TP {t['tp']} FP {t['fp']} "
+          f"FN {t['fn']} TN {t['tn']})")
+    print(f"final map         {t['landmarks']} landmarks: {t['true_landmarks_mapped']} of "
+          f"{t['true_landmarks_seen']} true landmarks seen, {t['spurious_landmarks']} spurious")
+    print(f"pose RMSE         {t['pose_rmse_m']:.2f} m against the ground truth "
+          f"(ANEES {t['anees']:.2f})")
 print(f"processing time   {m['wall_time_s']:.2f} s (association {m['association_time_s']:.2f} s, "
       f"EKF update {m['update_time_s']:.2f} s); bag read {m['bag_read_s']:.2f} s")
 PY
 echo
-echo "results:  $out/  (trajectory.csv, landmarks.csv, associations.csv, gps.csv, metrics.json)"
+echo "results:  $out/  (trajectory.csv, landmarks.csv, associations.csv, metrics.json)"
 if [[ -f "$out/map.png" ]]; then
   echo "picture:  $out/map.png"
 fi

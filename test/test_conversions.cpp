@@ -76,6 +76,23 @@ TEST(Conversions, TransformAndRoundTrip) {
   EXPECT_TRUE(toPose2(msg).isApprox(pose, 1e-12));
 }
 
+TEST(Conversions, PlanarCovarianceIn6x6) {
+  Eigen::Matrix3d P;
+  P << 1, 2, 3, 2, 4, 5, 3, 5, 6;
+  const boost::array<double, 36> c = toCovarianceMsg(P, 1e-6);
+  const int idx[3] = {0, 1, 5};  // x, y, yaw
+  for (int r = 0; r < 3; ++r) {
+    for (int q = 0; q < 3; ++q) EXPECT_EQ(c[idx[r] * 6 + idx[q]], P(r, q));
+  }
+  for (int k = 2; k < 5; ++k) EXPECT_EQ(c[k * 6 + k], 1e-6);  // z, roll, pitch
+  EXPECT_EQ(c[2 * 6 + 3], 0.0);
+  EXPECT_EQ(toCovarianceMsg(P)[3 * 6 + 3], 0.0);
+  const geometry_msgs::Quaternion q = toQuaternionMsg(M_PI / 2);
+  EXPECT_NEAR(q.z, std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(q.w, std::sqrt(0.5), 1e-12);
+  EXPECT_EQ(q.x, 0.0);
+}
+
 TEST(Conversions, Odometry) {
   nav_msgs::Odometry msg;
   msg.header.stamp = ros::Time(20, 967000000);

@@ -30,11 +30,28 @@ geometry_msgs::Pose toPoseMsg(const Eigen::Vector3d& pose) {
   msg.position.x = pose.x();
   msg.position.y = pose.y();
   msg.position.z = 0.0;
-  msg.orientation.x = 0.0;
-  msg.orientation.y = 0.0;
-  msg.orientation.z = std::sin(0.5 * pose.z());
-  msg.orientation.w = std::cos(0.5 * pose.z());
+  msg.orientation = toQuaternionMsg(pose.z());
   return msg;
+}
+
+geometry_msgs::Quaternion toQuaternionMsg(double yaw) {
+  geometry_msgs::Quaternion q;
+  q.x = 0.0;
+  q.y = 0.0;
+  q.z = std::sin(0.5 * yaw);
+  q.w = std::cos(0.5 * yaw);
+  return q;
+}
+
+boost::array<double, 36> toCovarianceMsg(const Eigen::Matrix3d& P, double other_variance) {
+  boost::array<double, 36> c;
+  c.fill(0.0);
+  for (int k = 2; k < 5; ++k) c[k * 6 + k] = other_variance;
+  const int idx[3] = {0, 1, 5};  // x, y, yaw
+  for (int r = 0; r < 3; ++r) {
+    for (int q = 0; q < 3; ++q) c[idx[r] * 6 + idx[q]] = P(r, q);
+  }
+  return c;
 }
 
 OdometryInput toOdometryInput(const nav_msgs::Odometry& msg) {

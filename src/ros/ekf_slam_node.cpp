@@ -359,11 +359,7 @@ void EkfSlamNode::publish(const ScanReport& report) {
     geometry_msgs::PoseWithCovarianceStamped msg;
     msg.header = ps.header;
     msg.pose.pose = ps.pose;
-    // (x, y, yaw) sit at rows/columns 0, 1, 5 of ROS's 6x6 (x, y, z, roll, pitch, yaw).
-    const int idx[3] = {0, 1, 5};
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) msg.pose.covariance[idx[r] * 6 + idx[c]] = P(r, c);
-    }
+    msg.pose.covariance = toCovarianceMsg(P);
     pose_pub_.publish(msg);
   }
   if (associations_pub_.getNumSubscribers() > 0) {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ekf_slam/ros/conversions.h"
+
 namespace ekf_slam {
 
 namespace {
@@ -17,13 +19,6 @@ void setColor(visualization_msgs::Marker* m, float r, float g, float b, float a)
   m->color.g = g;
   m->color.b = b;
   m->color.a = a;
-}
-
-void setYaw(visualization_msgs::Marker* m, double yaw) {
-  m->pose.orientation.x = 0.0;
-  m->pose.orientation.y = 0.0;
-  m->pose.orientation.z = std::sin(0.5 * yaw);
-  m->pose.orientation.w = std::cos(0.5 * yaw);
 }
 
 }  // namespace
@@ -99,7 +94,8 @@ const visualization_msgs::MarkerArray& LandmarkMarkers::build(const SlamPipeline
         m.pose.position.x = p.x();
         m.pose.position.y = p.y();
         m.pose.position.z = 0.01;
-        setYaw(&m, 0.5 * std::atan2(2.0 * b, a - c));  // direction of the major axis
+        // Direction of the major axis.
+        m.pose.orientation = toQuaternionMsg(0.5 * std::atan2(2.0 * b, a - c));
         m.scale.x = std::max(2.0 * std::sqrt(kChi2_2_95 * major), kMinScale);
         m.scale.y = std::max(2.0 * std::sqrt(kChi2_2_95 * minor), kMinScale);
         m.scale.z = 0.02;

@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <array>
-#include <boost/make_shared.hpp>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
@@ -31,6 +30,8 @@
 #include "ekf_slam/core/motion_models.h"
 #include "ekf_slam/core/simulated_run.h"
 #include "ekf_slam/core/simulator.h"
+#include "ekf_slam/ros/conversions.h"
+#include "ekf_slam/ros/latched_topic.h"
 
 namespace ekf_slam {
 
@@ -45,31 +46,6 @@ const char* const kAssociators[] = {"DJNN", "NN", "JCBB", "NNJCBB", "Hungarian"}
 
 ros::Time bagStamp(double sim_stamp) { return ros::Time(sim_stamp + sim::kStampOffset); }
 
-geometry_msgs::Quaternion yawQuaternion(double yaw) {
-  geometry_msgs::Quaternion q;
-  q.z = std::sin(yaw / 2);
-  q.w = std::cos(yaw / 2);
-  return q;
-}
-
-void setPose(const Eigen::Vector3d& pose, geometry_msgs::Pose* out) {
-  out->position.x = pose.x();
-  out->position.y = pose.y();
-  out->position.z = 0.0;
-  out->orientation = yawQuaternion(pose.z());
-}
-
-// x, y, yaw rows / columns of the 6x6 (x y z roll pitch yaw) covariance.
-constexpr int kPlanarIndex[3] = {0, 1, 5};
-
-void setPoseCovariance(const Eigen::Matrix3d& P, boost::array<double, 36>* c) {
-  std::fill(c->begin(), c->end(), 0.0);
-  for (int k = 2; k < 5; ++k) (*c)[k * 6 + k] = kPlanarVariance;
-  for (int r = 0; r < 3; ++r) {
-    for (int q = 0; q < 3; ++q) (*c)[kPlanarIndex[r] * 6 + kPlanarIndex[q]] = P(r, q);
-  }
-}
-
 // The twist covariance the filter assumes for this sample (TwistModel::step: the standard
 // deviations grow with |v|), so a consumer reading the covariance gets what the YAML configures.
 void setTwistCovariance(const TwistParams& p, const Eigen::Vector2d& twist,
@@ -81,19 +57,6 @@ void setTwistCovariance(const TwistParams& p, const Eigen::Vector2d& twist,
   const double sw = p.sigma_w + p.sigma_w_per_v * av;
   (*c)[0] = sv * sv;
   (*c)[35] = sw * sw;
-}
-
-template <typename M>
-boost::shared_ptr<ros::M_string> latchedHeader(const std::string& topic, const M& msg) {
-  // rosbag play latches a topic only when its connection header says so.
-  auto header = boost::make_shared<ros::M_string>();
-  (*header)["callerid"] = "/simulate";
-  (*header)["topic"] = topic;
-  (*header)["type"] = ros::message_traits::datatype(msg);
-  (*header)["md5sum"] = ros::message_traits::md5sum(msg);
-  (*header)["message_definition"] = ros::message_traits::definition(msg);
-  (*header)["latching"] = "1";
-  return header;
 }
 
 Landmark makeLandmark(LandmarkId id, const Eigen::Vector2d& p) {
@@ -294,9 +257,9 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
       tf.child_frame_id = "laser";
       tf.transform.translation.x = world.sensor.offset.x();
       tf.transform.translation.y = world.sensor.offset.y();
-      tf.transform.rotation = yawQuaternion(world.sensor.offset.z());
+      tf.transform.rotation = toQuaternionMsg(world.sensor.offset.z());
       msg.transforms.push_back(tf);
-      bag.write("/tf_static", t0, msg, latchedHeader("/tf_static", msg));
+      bag.write("/tf_static", t0, msg, latchedConnectionHeader("/simulate", "/tf_static", msg));
     }
     {
       LandmarkArray msg;
@@ -305,7 +268,7 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
       for (std::size_t k = 0; k < world.landmarks.size(); ++k) {
         msg.landmarks.push_back(makeLandmark(static_cast<LandmarkId>(k), world.landmarks[k]));
       }
-      bag.write("/true_map", t0, msg, latchedHeader("/true_map", msg));
+      bag.write("/true_map", t0, msg, latchedConnectionHeader("/simulate", "/true_map", msg));
     }
     if (options.markers && !world.landmarks.empty()) {
       visualization_msgs::MarkerArray msg;
@@ -313,7 +276,8 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
       // ("latest"): a static picture in the fixed frame.
       msg.markers.push_back(pointsMarker("true_landmarks", ros::Time(0), world.landmarks,
                                          {1.0f, 0.2f, 1.0f, 0.8f}, {1.2, 1.2, 0.05}, 0.02));
-      bag.write("/true_map_markers", t0, msg, latchedHeader("/true_map_markers", msg));
+      bag.write("/true_map_markers", t0, msg,
+                latchedConnectionHeader("/simulate", "/true_map_markers", msg));
     }
 
     for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
@@ -333,8 +297,8 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
         odom.header.stamp = t;
         odom.header.frame_id = "odom";
         odom.child_frame_id = "base_link";
-        setPose(o.pose, &odom.pose.pose);
-        setPoseCovariance(odom_cov, &odom.pose.covariance);
+        odom.pose.pose = toPoseMsg(o.pose);
+        odom.pose.covariance = toCovarianceMsg(odom_cov, kPlanarVariance);
         odom.twist.twist.linear.x = o.twist.x();
         odom.twist.twist.angular.z = o.twist.y();
         setTwistCovariance(twist_noise, o.twist, &odom.twist.covariance);
@@ -345,7 +309,7 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
         truth.header.stamp = t;
         truth.header.frame_id = "map";
         truth.child_frame_id = "base_link";
-        setPose(o.true_pose, &truth.pose.pose);
+        truth.pose.pose = toPoseMsg(o.true_pose);
         truth.twist.twist.linear.x = o.true_twist.x();
         truth.twist.twist.angular.z = o.true_twist.y();
         bag.write("/ground_truth", t, truth);
@@ -362,12 +326,10 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
       msg.header.stamp = t;
       msg.header.frame_id = "laser";
       msg.observations.reserve(set.observations.size());
-      for (const sim::SimObservation& z : set.observations) {
-        LandmarkObservation o;
-        o.range = z.z.x();
-        o.bearing = z.z.y();
-        o.covariance = {z.R(0, 0), z.R(0, 1), z.R(1, 0), z.R(1, 1)};
-        o.descriptor = kNaN;
+      const std::vector<Observation> observations = set.toObservations();
+      for (std::size_t i = 0; i < observations.size(); ++i) {
+        const sim::SimObservation& z = set.observations[i];
+        LandmarkObservation o = toObservationMsg(observations[i]);
         o.has_truth_id = true;
         o.truth_id = z.truth_id;
         msg.observations.push_back(o);

@@ -8,7 +8,6 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include <algorithm>
-#include <boost/make_shared.hpp>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -19,6 +18,8 @@
 
 #include "ekf_slam/core/motion_models.h"
 #include "ekf_slam/data/victoria_park.h"
+#include "ekf_slam/ros/conversions.h"
+#include "ekf_slam/ros/latched_topic.h"
 
 namespace ekf_slam {
 namespace victoria_park {
@@ -90,24 +91,6 @@ void fillTwist(const AckermannModel& model, const OdometryNoise& noise, double v
   c[0 * 6 + 0] = dv_dve * dv_dve * s2v + dv_da * dv_da * s2a;
   c[5 * 6 + 5] = dw_dve * dw_dve * s2v + dw_da * dw_da * s2a;
   c[0 * 6 + 5] = c[5 * 6 + 0] = dv_dve * dw_dve * s2v + dv_da * dw_da * s2a;
-}
-
-void fillPose(const Eigen::Vector3d& pose, const Eigen::Matrix3d& P,
-              geometry_msgs::PoseWithCovariance* out) {
-  out->pose.position.x = pose.x();
-  out->pose.position.y = pose.y();
-  out->pose.position.z = 0.0;
-  out->pose.orientation.x = 0.0;
-  out->pose.orientation.y = 0.0;
-  out->pose.orientation.z = std::sin(pose.z() / 2);
-  out->pose.orientation.w = std::cos(pose.z() / 2);
-  auto& c = out->covariance;
-  std::fill(c.begin(), c.end(), 0.0);
-  for (int k = 2; k < 5; ++k) c[k * 6 + k] = kPlanarVariance;
-  const int idx[3] = {0, 1, 5};  // x, y, yaw in the 6x6 (x y z roll pitch yaw) matrix
-  for (int r = 0; r < 3; ++r) {
-    for (int q = 0; q < 3; ++q) c[idx[r] * 6 + idx[q]] = P(r, q);
-  }
 }
 
 bool parseSeconds(const std::string& text, double* value) {
@@ -190,15 +173,8 @@ BagCounts writeVictoriaParkBag(const BagOptions& options) {
           tf.transform.translation.y = kLaserY;
           tf.transform.rotation.w = 1.0;
           msg.transforms.push_back(tf);
-          // rosbag play latches a topic only when its connection header says so.
-          auto header = boost::make_shared<ros::M_string>();
-          (*header)["callerid"] = "/victoria_park_to_bag";
-          (*header)["topic"] = "/tf_static";
-          (*header)["type"] = ros::message_traits::datatype(msg);
-          (*header)["md5sum"] = ros::message_traits::md5sum(msg);
-          (*header)["message_definition"] = ros::message_traits::definition(msg);
-          (*header)["latching"] = "1";
-          bag.write("/tf_static", stamp, msg, header);
+          bag.write("/tf_static", stamp, msg,
+                    latchedConnectionHeader("/victoria_park_to_bag", "/tf_static", msg));
           ++counts.tf_static;
           break;
         }
@@ -229,7 +205,8 @@ BagCounts writeVictoriaParkBag(const BagOptions& options) {
           msg.header.stamp = stamp;
           msg.header.frame_id = "odom";
           msg.child_frame_id = "base_link";
-          fillPose(pose, P, &msg.pose);
+          msg.pose.pose = toPoseMsg(pose);
+          msg.pose.covariance = toCovarianceMsg(P, kPlanarVariance);
           fillTwist(model, options.odometry_noise, dr.speed[e.index], dr.steering[e.index],
                     &msg.twist);
           bag.write("/odom", stamp, msg);

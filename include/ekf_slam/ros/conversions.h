@@ -7,11 +7,13 @@
 #include <vector>
 
 #include <geometry_msgs/Pose.h>
+#include <geometry_msgs/Quaternion.h>
 #include <geometry_msgs/Transform.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/time.h>
 #include <sensor_msgs/LaserScan.h>
 #include <Eigen/Core>
+#include <boost/array.hpp>
 
 #include "ekf_slam/AssociationStats.h"
 #include "ekf_slam/LandmarkArray.h"
@@ -24,6 +26,11 @@ namespace ekf_slam {
 Eigen::Vector3d toPose2(const geometry_msgs::Pose& pose);
 Eigen::Vector3d toPose2(const geometry_msgs::Transform& transform);
 geometry_msgs::Pose toPoseMsg(const Eigen::Vector3d& pose);
+/// Rotation by `yaw` about z.
+geometry_msgs::Quaternion toQuaternionMsg(double yaw);
+/// ROS's 6x6 (x, y, z, roll, pitch, yaw) covariance of a planar (x, y, yaw) one: P at rows and
+/// columns 0, 1, 5; z, roll and pitch get `other_variance` on the diagonal; the rest is zero.
+boost::array<double, 36> toCovarianceMsg(const Eigen::Matrix3d& P, double other_variance = 0.0);
 
 /// nav_msgs/Odometry -> twist (v, w) and planar pose, stamped with header.stamp.
 OdometryInput toOdometryInput(const nav_msgs::Odometry& msg);

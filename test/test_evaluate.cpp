@@ -17,24 +17,14 @@
 #include "ekf_slam/core/parameters.h"
 #include "ekf_slam/ros/associator_loader.h"
 #include "ekf_slam/ros/evaluate.h"
+#include "test_files.h"
 
 namespace ekf_slam {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string tempDir() {
-  std::string templ = (fs::temp_directory_path() / "evaluate_XXXXXX").string();
-  if (mkdtemp(templ.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-  return templ;
-}
-
-std::string readFile(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using test_files::readFile;
+using test_files::TempDir;
 
 bool parse(std::vector<std::string> args, EvaluateOptions* o, std::string* error) {
   bool help = false;
@@ -99,7 +89,8 @@ EvaluateOptions tinyOptions(const std::string& out) {
 
 // Two threads run the four runs; each must equal a serial run of the same world and seed.
 TEST(Evaluate, ParallelRunsEqualSerialRunsAndFilesAreWritten) {
-  const std::string dir = tempDir();
+  const TempDir tmp("evaluate");
+  const std::string dir = tmp.path().string();
   std::ostringstream log;
   const Evaluation e = runEvaluation(tinyOptions(dir), log);
   ASSERT_EQ(e.rows.size(), 4u);
@@ -134,7 +125,6 @@ TEST(Evaluate, ParallelRunsEqualSerialRunsAndFilesAreWritten) {
   EXPECT_NE(md.find("| DJNN |"), std::string::npos);
   EXPECT_NE(md.find("| NN |"), std::string::npos);
   EXPECT_NE(readFile(dir + "/nees.csv").find("tiny,DJNN,"), std::string::npos);
-  fs::remove_all(dir);
 }
 
 TEST(Evaluate, OverridesReachTheAssociator) {
@@ -165,7 +155,8 @@ TEST(Evaluate, UnknownAssociatorListsTheAvailableOnes) {
 }
 
 TEST(Evaluate, CommandLine) {
-  const std::string dir = tempDir();
+  const TempDir tmp("evaluate");
+  const std::string dir = tmp.path().string();
   const std::string cmd = std::string(EVALUATE_BIN) + " --world tiny --runs 1 --associators DJNN" +
                           " --no-progress --out " + dir + " > " + dir + "/stdout.txt 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << readFile(dir + "/stdout.txt");
@@ -174,7 +165,6 @@ TEST(Evaluate, CommandLine) {
   const std::string bad = std::string(EVALUATE_BIN) + " --world tiny > /dev/null 2>&1";
   const int rc = std::system(bad.c_str());
   EXPECT_TRUE(WIFEXITED(rc) && WEXITSTATUS(rc) == 2);
-  fs::remove_all(dir);
 }
 
 }  // namespace

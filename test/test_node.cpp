@@ -39,9 +39,13 @@
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
+#include "ros_test_wait.h"
+#include "test_files.h"
 
 namespace vp = ekf_slam::victoria_park;
 namespace fs = std::filesystem;
+using test_files::readFile;
+using test_files::waitFor;
 
 namespace {
 
@@ -167,24 +171,6 @@ struct NodeOutputs {
   ekf_slam::LandmarkArray last_map;
   ekf_slam::AssociationStats last_stats;
 };
-
-bool waitFor(const std::function<bool()>& done, double seconds) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
-  while (ros::ok() && ros::WallTime::now() < deadline) {
-    ros::spinOnce();
-    if (done()) return true;
-    ros::WallDuration(0.005).sleep();
-  }
-  ros::spinOnce();
-  return done();
-}
-
-std::string readFile(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 }  // namespace
 

@@ -30,26 +30,13 @@
 #include "ekf_slam/core/simulator.h"
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/simulation_bag.h"
+#include "test_files.h"
 
 namespace fs = std::filesystem;
+using test_files::TempDir;
 using namespace ekf_slam;
 
 namespace {
-
-class TempDir {
- public:
-  TempDir() {
-    std::string templ = (fs::temp_directory_path() / "ekf_slam_simulate_XXXXXX").string();
-    if (mkdtemp(templ.data()) != nullptr) path_ = templ;
-  }
-  ~TempDir() {
-    if (!path_.empty()) fs::remove_all(path_);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
 
 // What a Simulation of a world + seed emits, for comparison with the bag.
 struct Expected {
@@ -385,7 +372,7 @@ TEST(SimulateYaml, NumbersReadBackAsNumbersInBothYamlDialects) {
 }
 
 TEST(Simulate, SameSeedSameBagOtherSeedOtherBag) {
-  TempDir dir;
+  TempDir dir("ekf_slam_simulate");
   ASSERT_FALSE(dir.path().empty());
   std::ostringstream log;
   SimulationBagOptions o;
@@ -419,7 +406,7 @@ TEST(Simulate, SameSeedSameBagOtherSeedOtherBag) {
 }
 
 TEST(Simulate, OverridesAndParamsPath) {
-  TempDir dir;
+  TempDir dir("ekf_slam_simulate");
   std::ostringstream log;
   SimulationBagOptions o;
   o.world = "tiny";
@@ -445,7 +432,7 @@ TEST(Simulate, OverridesAndParamsPath) {
 }
 
 TEST(Simulate, ErrorsLeaveNoFiles) {
-  TempDir dir;
+  TempDir dir("ekf_slam_simulate");
   std::ostringstream log;
   SimulationBagOptions o;
   o.world = "no_such_world";
@@ -463,7 +450,7 @@ TEST(Simulate, ErrorsLeaveNoFiles) {
 }
 
 TEST(Simulate, OfflineRunnerMapsTheWorld) {
-  TempDir dir;
+  TempDir dir("ekf_slam_simulate");
   std::ostringstream log;
   SimulationBagOptions o;
   o.world = "tiny";
@@ -595,7 +582,7 @@ TEST(SimulateArguments, Parse) {
 }
 
 TEST(SimulateArguments, ExitCodes) {
-  TempDir dir;
+  TempDir dir("ekf_slam_simulate");
   auto run = [](std::vector<std::string> args) {
     std::vector<char*> argv;
     static std::string program = "simulate";

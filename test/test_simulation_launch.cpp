@@ -23,8 +23,12 @@
 #include "ekf_slam/core/simulated_run.h"
 #include "ekf_slam/core/simulator.h"
 #include "ekf_slam/ros/simulation_bag.h"
+#include "ros_test_wait.h"
+#include "test_files.h"
 
 namespace fs = std::filesystem;
+using test_files::readFile;
+using test_files::waitFor;
 
 namespace {
 
@@ -72,24 +76,6 @@ class Roslaunch {
   pid_t pid_ = -1;
 };
 
-bool waitFor(const std::function<bool()>& done, double seconds) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
-  while (ros::ok() && ros::WallTime::now() < deadline) {
-    ros::spinOnce();
-    if (done()) return true;
-    ros::WallDuration(0.01).sleep();
-  }
-  ros::spinOnce();
-  return done();
-}
-
-std::string readFile(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 }  // namespace
 
 TEST(SimulationLaunch, NodeMapsTheTinyWorld) {
@@ -135,7 +121,7 @@ TEST(SimulationLaunch, NodeMapsTheTinyWorld) {
              map.header.stamp == last.header.stamp;
     };
     bool ended = false;
-    waitFor([&] { return done() || (ended = launch.exited()); }, 40.0);
+    waitFor([&] { return done() || (ended = launch.exited()); }, 40.0, 0.01);
     processed_all = done();
     EXPECT_FALSE(ended) << "roslaunch ended early:\n" << readFile(launch_log);
   }

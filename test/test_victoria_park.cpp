@@ -19,32 +19,17 @@
 
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
+#include "test_files.h"
 
 namespace vp = ekf_slam::victoria_park;
 namespace fs = std::filesystem;
+
+using test_files::TempDir;
 
 namespace {
 
 constexpr double kL = 2.83;
 constexpr double kH = 0.76;
-
-// A fresh temporary folder, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    std::string templ = (fs::temp_directory_path() / "ekf_slam_vp_XXXXXX").string();
-    path_ = mkdtemp(templ.data());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const std::string& path() const { return path_; }
-  std::string file(const std::string& name) const { return (fs::path(path_) / name).string(); }
-
- private:
-  std::string path_;
-};
 
 void writeText(const std::string& path, const std::string& text) {
   fs::create_directories(fs::path(path).parent_path());

@@ -7,11 +7,11 @@ set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 if [[ ! -f "$EKF_SLAM_BUILD/CMakeCache.txt" ]]; then
   cmake -S "$EKF_SLAM_ROOT" -B "$EKF_SLAM_BUILD" -DCMAKE_BUILD_TYPE=Release \
-    -DPYTHON_EXECUTABLE=/usr/bin/python3 > "$EKF_SLAM_BUILD.configure.log" 2>&1 \
+    -DCATKIN_DEVEL_PREFIX="$EKF_SLAM_DEVEL" -DPYTHON_EXECUTABLE=/usr/bin/python3 > "$EKF_SLAM_BUILD.configure.log" 2>&1 \
     || { cat "$EKF_SLAM_BUILD.configure.log"; exit 1; }
 fi
 cmake --build "$EKF_SLAM_BUILD" --target bench_association -j"$(nproc)" > /dev/null
-bin=$(find "$EKF_SLAM_BUILD/devel/lib" -name bench_association -type f | head -n1)
+bin=$(find "$EKF_SLAM_DEVEL/lib" -name bench_association -type f | head -n1)
 [[ -x "$bin" ]] || { echo "bench_association was not built (libbenchmark-dev missing?)"; exit 1; }
 json="$EKF_SLAM_BUILD/bench_association.json"
 "$bin" --benchmark_repetitions=3 --benchmark_report_aggregates_only=true \

@@ -11,8 +11,8 @@ VP_BAG=${VP_BAG:-$EKF_SLAM_BUILD/vp.bag}
 associators=("$@")
 ((${#associators[@]})) || associators=(NN JCBB DJNN NNJCBB Hungarian)
 
-[[ -f "$EKF_SLAM_BUILD/devel/setup.bash" ]] || { echo "no build in $EKF_SLAM_BUILD: run scripts/build.sh"; exit 1; }
-source "$EKF_SLAM_BUILD/devel/setup.bash"
+[[ -f "$EKF_SLAM_DEVEL/setup.bash" ]] || { echo "no build in $EKF_SLAM_BUILD: run scripts/build.sh"; exit 1; }
+source "$EKF_SLAM_DEVEL/setup.bash"
 if [[ ! -f "$VP_BAG" ]]; then
   rosrun ekf_slam victoria_park_to_bag --data "$VP_DATA" --out "$VP_BAG" >&2
 fi

@@ -20,7 +20,7 @@ MSG
 fi
 
 "$EKF_SLAM_ROOT/scripts/build.sh"
-source "$EKF_SLAM_BUILD/devel/setup.bash"
+source "$EKF_SLAM_DEVEL/setup.bash"
 
 if [[ $mode == simulation ]]; then
   world=${WORLD:-djnn_strong}

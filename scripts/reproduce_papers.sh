@@ -16,8 +16,8 @@ JOBS=${JOBS:-$(nproc)}
 experiments=("$@")
 ((${#experiments[@]})) || experiments=(djnn hybrid rrw aekf)
 
-[[ -f "$EKF_SLAM_BUILD/devel/setup.bash" ]] || { echo "no build in $EKF_SLAM_BUILD: run scripts/build.sh"; exit 1; }
-source "$EKF_SLAM_BUILD/devel/setup.bash"
+[[ -f "$EKF_SLAM_DEVEL/setup.bash" ]] || { echo "no build in $EKF_SLAM_BUILD: run scripts/build.sh"; exit 1; }
+source "$EKF_SLAM_DEVEL/setup.bash"
 
 run() {  # run NAME WORLDS ASSOCIATORS [evaluate options]
   local name=$1 worlds=$2 associators=$3 t0=$SECONDS

@@ -7,7 +7,7 @@ start=$(date +%s)
 "$EKF_SLAM_ROOT/scripts/build.sh"
 echo "build: $(( $(date +%s) - start )) s"
 
-source "$EKF_SLAM_BUILD/devel/setup.bash"
+source "$EKF_SLAM_DEVEL/setup.bash"
 rm -rf "$EKF_SLAM_BUILD/test_results"
 cd "$EKF_SLAM_BUILD"
 set +e

@@ -399,6 +399,26 @@ TEST(DJNN, UnknownLandmarksStartWithConfiguredEvidence) {
   EXPECT_EQ(d.evidence(Scene::idOf(b)), 2);
 }
 
+TEST(DJNN, LoadedLandmarksKeepTheirEvidence) {
+  // A saved landmark seen 6 times survives 6 misses; one seen once is kept like a newly
+  // admitted one (admit_evidence), not deleted at the first miss.
+  Scene s;
+  const int a = s.addLandmark({10, 0});
+  const int b = s.addLandmark({12, 6});
+  const int c = s.addLandmark({11, -5});
+  s.build();
+  s.observeLandmark(c);  // an empty scan changes nothing: c is seen, a and b are missed
+  DJNN d = makeDjnn({{"initial_evidence", "1"}, {"admit_evidence", "2"}});
+  d.landmarkLoaded(Scene::idOf(a), 6);
+  d.landmarkLoaded(Scene::idOf(b), 1);
+  EXPECT_EQ(d.evidence(Scene::idOf(a)), 6);
+  EXPECT_EQ(d.evidence(Scene::idOf(b)), 2);
+  const AssociationResult r = d.associate(s.context());
+  EXPECT_TRUE(r.remove.empty());
+  EXPECT_EQ(d.evidence(Scene::idOf(a)), 5);
+  EXPECT_EQ(d.evidence(Scene::idOf(b)), 1);
+}
+
 // --- local region (eq. 10) and cost -----------------------------------------------------------
 
 TEST(DJNN, LocalRegionExcludesLandmarksBehindAndBeyondRange) {

@@ -13,6 +13,7 @@
 
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/pipeline_config.h"
 #include "ekf_slam/core/slam_pipeline.h"
 
 namespace ekf_slam {
@@ -558,6 +559,82 @@ TEST(SlamPipeline, SaveLoadRoundTrip) {
   const ScanReport r = s.processObservations(0.0, {observe(m, s.pose(), {30, 30}, 0)});
   EXPECT_GT(r.association.landmark[0], p.ekf().landmarkIds().back());
   std::remove(path.c_str());
+}
+
+// An associator that records landmarkLoaded() calls.
+class LoadRecorder : public ScriptedAssociator {
+ public:
+  using ScriptedAssociator::ScriptedAssociator;
+  void landmarkLoaded(LandmarkId id, std::uint32_t times) override { loaded[id] = times; }
+  std::map<LandmarkId, std::uint32_t> loaded;
+};
+
+TEST(SlamPipeline, LoadMapTellsTheAssociatorHowOftenEachLandmarkWasSeen) {
+  auto oracle = std::make_shared<OracleAssociator>();
+  SlamPipeline p(PipelineConfig(), oracle);
+  const RangeBearingModel& m = p.observationModel();
+  const Eigen::Vector3d pose(0, 0, 0);
+  for (int k = 0; k < 3; ++k) {
+    std::vector<Observation> obs = {observe(m, pose, {5, 1}, 1)};
+    if (k == 0) obs.push_back(observe(m, pose, {8, -2}, 2));
+    p.processObservations(0.1 * k, obs);
+  }
+  const std::string path = tempPath("map_loaded");
+  p.saveMap(path);
+  auto rec = std::make_shared<LoadRecorder>();
+  SlamPipeline q(PipelineConfig(), rec);
+  q.loadMap(path, true);
+  std::remove(path.c_str());
+  EXPECT_EQ(rec->loaded, (std::map<LandmarkId, std::uint32_t>{{oracle->id_of.at(1), 3u},
+                                                              {oracle->id_of.at(2), 1u}}));
+}
+
+TEST(SlamPipeline, LocalizationModeUsesTheMapButNeverChangesIt) {
+  // Build a map, save it, load it in localization mode.
+  auto oracle = std::make_shared<OracleAssociator>();
+  SlamPipeline p(PipelineConfig(), oracle);
+  const RangeBearingModel& m = p.observationModel();
+  const Eigen::Vector3d pose(0, 0, 0);
+  p.processObservations(0.0, {observe(m, pose, {5, 1}, 1), observe(m, pose, {8, -2}, 2)});
+  const std::string path = tempPath("map_localization");
+  p.saveMap(path);
+
+  PipelineConfig config;
+  config.mode = "localization";
+  auto script = std::make_shared<ScriptedAssociator>();
+  SlamPipeline q(config, script);
+  EXPECT_TRUE(q.mapFrozen());
+  q.loadMap(path, true);
+  std::remove(path.c_str());
+  const std::vector<LandmarkId> ids = q.ekf().landmarkIds();
+  const Eigen::Vector2d before = q.ekf().landmark(0);
+  // The associator pairs the first, wants a new landmark for the second, and a removal.
+  script->script_ = [&](const AssociationContext& ctx) {
+    AssociationResult r;
+    r.resize(ctx.numObservations());
+    r.pair(0, ids[0]);
+    r.decision[1] = Decision::kNew;
+    r.remove = {ids[1]};
+    return r;
+  };
+  const ScanReport r = q.processObservations(
+      0.1,
+      {observe(m, pose, before + Eigen::Vector2d(0.05, 0.0), 1), observe(m, pose, {20, 3}, 5)});
+  EXPECT_EQ(q.ekf().landmarkIds(), ids) << "the map changed";
+  EXPECT_EQ(r.association.decision[0], Decision::kPaired);
+  EXPECT_EQ(r.association.decision[1], Decision::kRejected);
+  EXPECT_TRUE(r.removed.empty());
+  EXPECT_EQ(q.counters().frozen_new, 1u);
+  EXPECT_EQ(q.counters().frozen_removals, 1u);
+  EXPECT_GT(r.nis_dof, 0) << "the pairing was not used";
+}
+
+TEST(SlamPipeline, ModeIsValidated) {
+  MapParameterSource params;
+  params.set("mode", "mapping");
+  EXPECT_THROW(readPipelineConfig(params), ParameterError);
+  params.set("mode", "localization");
+  EXPECT_EQ(readPipelineConfig(params).mode, "localization");
 }
 
 TEST(SlamPipeline, MalformedMapFileNamesFileAndLine) {

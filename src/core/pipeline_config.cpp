@@ -40,6 +40,9 @@ void PipelineConfig::validate() const {
     throw ParameterError("parameter odometry_mode: must be one of {twist, pose_delta}, got '" +
                          odometry_mode + "'");
   }
+  if (mode != "slam" && mode != "localization") {
+    throw ParameterError("parameter mode: must be one of {slam, localization}, got '" + mode + "'");
+  }
   const auto nonNegative = [](double v, const std::string& name) {
     check(std::isfinite(v) && v >= 0.0, name, "must be finite and >= 0", v);
   };
@@ -93,6 +96,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   const ParameterReader r(params);
   PipelineConfig c;  // the defaults
   c.odometry_mode = r.text("odometry_mode", c.odometry_mode, {"twist", "pose_delta"});
+  c.mode = r.text("mode", c.mode, {"slam", "localization"});
 
   TwistParams& t = c.twist;
   t.sigma_v = r.nonNegative("twist_sigma_v", t.sigma_v);

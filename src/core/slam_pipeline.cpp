@@ -299,6 +299,16 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
   AssociationResult& result = report.association;
   report.invalid_decisions = sanitise(n, &result);
   if (report.invalid_decisions > 0) ++counters_.invalid_associations;
+  if (mapFrozen()) {
+    // The map is used, not rebuilt: what the associator would add or delete is only counted.
+    for (Decision& d : result.decision) {
+      if (d != Decision::kNew) continue;
+      d = Decision::kRejected;
+      ++counters_.frozen_new;
+    }
+    counters_.frozen_removals += result.remove.size();
+    result.remove.clear();
+  }
 
   t0 = std::chrono::steady_clock::now();
   // 1. One batch update with every paired observation (the original measurements).
@@ -489,6 +499,7 @@ void SlamPipeline::loadMap(const std::string& path, bool reset_pose) {
   index_.clear();
   index_.sync(ekf_);
   associator_->reset();
+  for (const MapEntry& e : entries) associator_->landmarkLoaded(e.id, e.info.times_observed);
 }
 
 }  // namespace ekf_slam

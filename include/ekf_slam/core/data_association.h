@@ -150,6 +150,11 @@ class DataAssociation {
   /// (after a kNew decision). Associators that keep per-landmark state hook in here.
   virtual void landmarkAdded(int /*obs*/, LandmarkId /*id*/) {}
 
+  /// The pipeline loaded landmark `id` from a saved map, where it had been paired in
+  /// `times_observed` scans. Associators with per-landmark state (evidence) initialise it here,
+  /// so that a reused map is not thrown away before the data had a chance to confirm it.
+  virtual void landmarkLoaded(LandmarkId /*id*/, std::uint32_t /*times_observed*/) {}
+
   /// Forgets all state kept between scans (tentative features, counters).
   virtual void reset() = 0;
 

@@ -48,6 +48,9 @@ struct PipelineConfig {
   /// Which part of nav_msgs/Odometry drives the prediction: "twist" (v, w held until the next
   /// message) or "pose_delta" (increments between consecutive odometry poses).
   std::string odometry_mode = "twist";
+  /// "slam": build the map; "localization": use the map as it is (loaded with loadMap): no
+  /// landmark is created or removed, paired landmarks are still refined by the updates.
+  std::string mode = "slam";
   TwistParams twist;
   PoseDeltaParams pose_delta;
 
@@ -125,6 +128,9 @@ struct PipelineCounters {
   std::uint64_t failed_initialisations = 0;  ///< kNew the EKF could not initialise
   std::uint64_t invalid_stamps = 0;          ///< scans with a non-finite stamp (used at time())
   std::uint64_t resets = 0;                  ///< reset() calls
+  /// Localization mode: new landmarks and removals the associator asked for, not applied.
+  std::uint64_t frozen_new = 0;
+  std::uint64_t frozen_removals = 0;
 };
 
 class SlamPipeline {
@@ -170,6 +176,8 @@ class SlamPipeline {
   const PipelineConfig& config() const { return config_; }
   /// Stamp the filter has been predicted to (NaN before any input).
   double time() const { return time_; }
+  /// True when the map must not change (localization mode).
+  bool mapFrozen() const { return config_.mode == "localization"; }
 
   // --- map files ----------------------------------------------------------------------------
   /// Writes the landmarks (id, x, y, covariance, diameter, times observed) as plain text: a
@@ -179,9 +187,9 @@ class SlamPipeline {
   void saveMap(const std::string& path) const;
   /// Replaces the map with a saved one; loaded landmarks keep their ids and covariances and are
   /// uncorrelated with the pose and each other. The pose keeps its estimate and covariance
-  /// unless reset_pose (then: the initial pose). The associator is reset (DJNN gives the loaded
-  /// landmarks its initial_evidence). Throws std::runtime_error naming the file and line; the
-  /// state is unchanged on error.
+  /// unless reset_pose (then: the initial pose). The associator is reset and told of every loaded
+  /// landmark with its times_observed (DJNN keeps them as established landmarks). Throws
+  /// std::runtime_error naming the file and line; the state is unchanged on error.
   void loadMap(const std::string& path, bool reset_pose);
 
  private:

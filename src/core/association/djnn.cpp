@@ -681,6 +681,15 @@ void DJNN::landmarkAdded(int obs, LandmarkId id) {
   evidence_[id] = t;
 }
 
+void DJNN::landmarkLoaded(LandmarkId id, std::uint32_t times_observed) {
+  // A saved landmark was confirmed that many times: it survives as many misses (the evidence it
+  // would have had with no miss), at least the admission level, within the cap.
+  long t =
+      std::max<long>({static_cast<long>(times_observed), p_.admit_evidence, p_.initial_evidence});
+  if (p_.max_evidence > 0) t = std::min<long>(t, p_.max_evidence);
+  evidence_[id] = static_cast<int>(std::min<long>(t, kMaxEvidence));
+}
+
 int DJNN::evidence(LandmarkId id) const {
   auto it = evidence_.find(id);
   return it != evidence_.end() ? it->second : p_.initial_evidence;

@@ -89,6 +89,7 @@ class DJNN : public DataAssociation {
   std::string name() const override { return "DJNN"; }
   AssociationResult associate(const AssociationContext& ctx) override;
   void landmarkAdded(int obs, LandmarkId id) override;
+  void landmarkLoaded(LandmarkId id, std::uint32_t times_observed) override;
   void reset() override;
   int evidence(LandmarkId id) const override;
   std::vector<TentativeFeature> tentativeFeatures() const override;

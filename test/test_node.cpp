@@ -6,6 +6,7 @@
 //  - BadInput.*: NaN / inf / empty scans, bad angles, late, zero and unknown-frame stamps, bad
 //    observations: the node keeps running, reports every processed input and stays finite;
 //    services work; an unknown associator name makes the node exit non-zero listing the names.
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
@@ -182,7 +183,8 @@ TEST(VictoriaPark, NodePublishesEverything) {
   vp::BagOptions options;
   options.data_dir = vp::defaultDataDir();
   if (!fs::exists(fs::path(options.data_dir) / "aa3_dr.mat")) {
-    GTEST_SKIP() << "Victoria Park data not found in " << options.data_dir << " (set VP_DATA)";
+    EKF_SLAM_SKIP_WITHOUT_DATA("Victoria Park data not found in " << options.data_dir
+                                                                  << " (set VP_DATA)");
   }
   std::string templ = (fs::temp_directory_path() / "ekf_slam_node_XXXXXX").string();
   ASSERT_NE(mkdtemp(templ.data()), nullptr);
@@ -195,6 +197,13 @@ TEST(VictoriaPark, NodePublishesEverything) {
 
   NodeOutputs out(nh);
   ASSERT_TRUE(waitFor([&] { return out.connected(); }, 20.0)) << "node outputs not advertised";
+  diagnostic_msgs::DiagnosticArray last_diagnostics;
+  int diagnostics = 0;
+  ros::Subscriber diag_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 10, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+        ++diagnostics;
+        last_diagnostics = *m;
+      });
 
   tf2_ros::Buffer buffer;
   tf2_ros::TransformListener listener(buffer);
@@ -217,7 +226,68 @@ TEST(VictoriaPark, NodePublishesEverything) {
     } catch (const tf2::TransformException& e) {
       ADD_FAILURE() << "no map -> odom: " << e.what();
     }
+    // The transform is republished on a timer, stamped ahead: a lookup at now() succeeds after
+    // the scans stopped (gmapping's and slam_toolbox's contract).
+    std::string why;
+    EXPECT_TRUE(buffer.canTransform("map", "odom", ros::Time::now(), ros::Duration(2.0), &why))
+        << why;
   }
+
+  // A subscriber that comes after the run gets the current map, landmarks and path: the
+  // outputs are latched and published whoever listens.
+  {
+    int late_maps = 0, late_markers = 0, late_paths = 0;
+    std::size_t late_map_size = 0, late_path_size = 0;
+    ros::Subscriber m = nh.subscribe<ekf_slam::LandmarkArray>(
+        "/ekf_slam/map", 1, [&](const ekf_slam::LandmarkArray::ConstPtr& msg) {
+          ++late_maps;
+          late_map_size = msg->landmarks.size();
+        });
+    ros::Subscriber k = nh.subscribe<visualization_msgs::MarkerArray>(
+        "/ekf_slam/landmarks", 1,
+        [&](const visualization_msgs::MarkerArray::ConstPtr&) { ++late_markers; });
+    ros::Subscriber p =
+        nh.subscribe<nav_msgs::Path>("/ekf_slam/path", 1, [&](const nav_msgs::Path::ConstPtr& msg) {
+          ++late_paths;
+          late_path_size = msg->poses.size();
+        });
+    EXPECT_TRUE(waitFor([&] { return late_maps > 0 && late_markers > 0 && late_paths > 0; }, 5.0))
+        << "late subscriber: " << late_maps << " maps, " << late_markers << " marker arrays, "
+        << late_paths << " paths";
+    EXPECT_EQ(late_map_size, out.last_stats.landmarks);
+    EXPECT_EQ(late_path_size, static_cast<std::size_t>(out.associations));
+  }
+
+  // /diagnostics: the node reports its inputs, and nothing was lost at this rate. Reports come
+  // every second: wait for one made after the last input.
+  const auto inputs_value = [&](const std::string& key) {
+    for (const auto& status : last_diagnostics.status) {
+      if (status.name.find("inputs") == std::string::npos) continue;
+      for (const auto& kv : status.values) {
+        if (kv.key == key) return kv.value;
+      }
+    }
+    return std::string();
+  };
+  ASSERT_TRUE(waitFor([&] { return diagnostics > 0; }, 3.0)) << "no /diagnostics";
+  waitFor(
+      [&] {
+        return inputs_value("scans received") == std::to_string(counts.scans) &&
+               inputs_value("odometry received") == std::to_string(counts.odometry);
+      },
+      3.0);
+  bool saw_inputs = false;
+  for (const auto& status : last_diagnostics.status) {
+    if (status.name.find("inputs") == std::string::npos) continue;
+    saw_inputs = true;
+    EXPECT_EQ(status.level, diagnostic_msgs::DiagnosticStatus::OK) << status.message;
+    for (const auto& kv : status.values) {
+      if (kv.key.find("missing") != std::string::npos) EXPECT_EQ(kv.value, "0") << kv.key;
+      if (kv.key == "scans received") EXPECT_EQ(kv.value, std::to_string(counts.scans));
+      if (kv.key == "odometry received") EXPECT_EQ(kv.value, std::to_string(counts.odometry));
+    }
+  }
+  EXPECT_TRUE(saw_inputs);
 
   // The offline runner on the same bag, with the same parameters, gives the same trajectory:
   // both shells drive one pipeline through one sequencer.
@@ -507,6 +577,21 @@ TEST(UnknownAssociator, ExitsNonZeroListingTheAvailableOnes) {
        {"ekf_slam/DJNN", "ekf_slam/NN", "ekf_slam/JCBB", "ekf_slam/NNJCBB", "ekf_slam/Hungarian"}) {
     EXPECT_NE(text.find(name), std::string::npos) << "missing " << name << " in:\n" << text;
   }
+  fs::remove(log);
+}
+
+// A frame with two parents breaks every tf consumer: such a configuration does not start.
+TEST(TwoParents, MapToBaseWithOdomTfIsRefused) {
+  const std::string log = (fs::temp_directory_path() / "ekf_slam_test_node_parents.log").string();
+  const std::string cmd = std::string("'") + EKF_SLAM_NODE_BIN +
+                          "' __name:=ekf_slam_two_parents _publish_map_to_base:=true "
+                          "_publish_odom_tf:=true > '" +
+                          log + "' 2>&1";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_NE(WEXITSTATUS(status), 0);
+  const std::string text = readFile(log);
+  EXPECT_NE(text.find("two parents"), std::string::npos) << text;
   fs::remove(log);
 }
 

@@ -1,11 +1,13 @@
 #include "ekf_slam/ros/ekf_slam_node.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <exception>
 #include <sstream>
 
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -68,6 +70,23 @@ std::string shortName(const std::string& lookup_name) {
 
 // How long the first message of a sensor frame waits for its transform [wall s].
 constexpr double kFirstTfWait = 1.0;
+// How long map -> odom waits for odom -> base_frame at the scan stamp before it falls back to
+// the Odometry message's pose [wall s].
+constexpr double kOdomTfWait = 0.5;
+
+diagnostic_msgs::KeyValue keyValue(const std::string& key, const std::string& value) {
+  diagnostic_msgs::KeyValue kv;
+  kv.key = key;
+  kv.value = value;
+  return kv;
+}
+
+template <typename T>
+diagnostic_msgs::KeyValue keyValue(const std::string& key, T value) {
+  std::ostringstream os;
+  os << value;
+  return keyValue(key, os.str());
+}
 
 }  // namespace
 
@@ -84,6 +103,7 @@ EkfSlamNode::EkfSlamNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   markers_ = LandmarkMarkers(config_.markers);
 
   pose_pub_ = pnh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose", 10);
+  diagnostics_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   path_pub_ = pnh_.advertise<nav_msgs::Path>("path", 1, true);
   markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("landmarks", 1, true);
   map_pub_ = pnh_.advertise<LandmarkArray>("map", 1, true);
@@ -93,13 +113,32 @@ EkfSlamNode::EkfSlamNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   save_srv_ = pnh_.advertiseService("save_map", &EkfSlamNode::saveMapService, this);
   load_srv_ = pnh_.advertiseService("load_map", &EkfSlamNode::loadMapService, this);
 
-  // Large queues: roscpp drops on overflow without telling anyone, and a scan that takes long
-  // must not cost the odometry in between.
+  // Reception on its own thread and callback queue: roscpp drops on a full subscriber queue
+  // without telling anyone, so its callbacks only hand the message over; processing (a scan can
+  // take milliseconds) happens in spin(). header.seq gaps still reveal any loss upstream.
   const auto hints = ros::TransportHints().tcpNoDelay();
-  odom_sub_ = nh_.subscribe("odom", config_.queue_size, &EkfSlamNode::odomCallback, this, hints);
-  scan_sub_ = nh_.subscribe("scan", config_.queue_size, &EkfSlamNode::scanCallback, this, hints);
-  observations_sub_ = nh_.subscribe("observations", config_.queue_size,
-                                    &EkfSlamNode::observationsCallback, this, hints);
+  ros::NodeHandle in_nh(nh_);
+  in_nh.setCallbackQueue(&input_queue_);
+  odom_sub_ = in_nh.subscribe<nav_msgs::Odometry>(
+      "odom", config_.queue_size,
+      [this](const nav_msgs::Odometry::ConstPtr& m) {
+        receive(Inbound{m, nullptr, nullptr, ros::WallTime::now()});
+      },
+      ros::VoidConstPtr(), hints);
+  scan_sub_ = in_nh.subscribe<sensor_msgs::LaserScan>(
+      "scan", config_.queue_size,
+      [this](const sensor_msgs::LaserScan::ConstPtr& m) {
+        receive(Inbound{nullptr, m, nullptr, ros::WallTime::now()});
+      },
+      ros::VoidConstPtr(), hints);
+  observations_sub_ = in_nh.subscribe<LandmarkObservationArray>(
+      "observations", config_.queue_size,
+      [this](const LandmarkObservationArray::ConstPtr& m) {
+        receive(Inbound{nullptr, nullptr, m, ros::WallTime::now()});
+      },
+      ros::VoidConstPtr(), hints);
+  input_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &input_queue_);
+  input_spinner_->start();
 
   last_input_ = ros::WallTime::now();
   const double check = std::min(0.25, 0.5 * config_.input_timeout);
@@ -108,7 +147,19 @@ EkfSlamNode::EkfSlamNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     visualization_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / config_.visualization_rate),
                                                &EkfSlamNode::onVisualizationTimer, this);
   }
+  if (config_.publish_tf && config_.transform_publish_period > 0.0) {
+    transform_timer_ = nh_.createWallTimer(ros::WallDuration(config_.transform_publish_period),
+                                           &EkfSlamNode::onTransformTimer, this);
+  }
+  last_diagnostics_ = ros::WallTime::now();
+  if (config_.diagnostics_period > 0.0) {
+    diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(config_.diagnostics_period),
+                                             &EkfSlamNode::onDiagnosticsTimer, this);
+  }
   path_.header.frame_id = config_.map_frame;
+  // Latched outputs hold the current state from the start: an empty map until the first scan.
+  visualization_dirty_ = true;
+  publishMapOutputs();
 
   ROS_INFO("ekf_slam: associator %s, odometry_mode %s, frames %s -> %s -> %s%s",
            config_.associator.c_str(), pipeline_config_.odometry_mode.c_str(),
@@ -116,7 +167,9 @@ EkfSlamNode::EkfSlamNode(ros::NodeHandle nh, ros::NodeHandle pnh)
            config_.publish_map_to_base ? " (publishing map -> base)" : "");
 }
 
-EkfSlamNode::~EkfSlamNode() = default;
+EkfSlamNode::~EkfSlamNode() {
+  if (input_spinner_) input_spinner_->stop();
+}
 
 void EkfSlamNode::readParameters() {
   const RosParameterSource source(pnh_);
@@ -130,17 +183,31 @@ void EkfSlamNode::readParameters() {
   config_.publish_map_to_base = p.flag("publish_map_to_base", config_.publish_map_to_base);
   config_.publish_odom_tf = p.flag("publish_odom_tf", config_.publish_odom_tf);
   config_.transform_tolerance = p.nonNegative("transform_tolerance", config_.transform_tolerance);
+  config_.transform_publish_period =
+      p.nonNegative("transform_publish_period", config_.transform_publish_period);
+  config_.diagnostics_period = p.nonNegative("diagnostics_period", config_.diagnostics_period);
   config_.visualization_rate = p.nonNegative("visualization_rate", config_.visualization_rate);
   config_.input_timeout = p.positive("input_timeout", config_.input_timeout);
-  config_.queue_size = p.integer("queue_size", config_.queue_size, 1, 1000000);
+  config_.queue_size = p.integer("queue_size", config_.queue_size, 1, 10000000);
   config_.map_file = p.text("map_file", config_.map_file);
   config_.markers.default_diameter =
       p.positive("marker_default_diameter", config_.markers.default_diameter);
   config_.markers.height = p.positive("marker_height", config_.markers.height);
+  config_.markers.text_size = p.positive("marker_text_size", config_.markers.text_size);
   config_.markers.show_ids = p.flag("marker_show_ids", config_.markers.show_ids);
   config_.markers.show_ellipses = p.flag("marker_show_covariance", config_.markers.show_ellipses);
   for (const std::string* frame : {&config_.map_frame, &config_.odom_frame, &config_.base_frame}) {
     if (frame->empty()) p.fail("frames", "frame names must not be empty");
+  }
+  if (config_.map_frame == config_.odom_frame || config_.map_frame == config_.base_frame ||
+      config_.odom_frame == config_.base_frame) {
+    p.fail("map_frame", "map_frame, odom_frame and base_frame must be three different frames");
+  }
+  // A tf frame has one parent: with both, base_frame would hang below map and below odom.
+  if (config_.publish_tf && config_.publish_map_to_base && config_.publish_odom_tf) {
+    p.fail("publish_map_to_base", "publish_map_to_base and publish_odom_tf together give " +
+                                      config_.base_frame + " two parents (" + config_.map_frame +
+                                      " and " + config_.odom_frame + "): choose one");
   }
 
   // The pipeline's parameters (docs/parameters.md), the same names as the offline runner's YAML.
@@ -153,8 +220,82 @@ void EkfSlamNode::readParameters() {
 
 // --- inputs ---------------------------------------------------------------------------------
 
-void EkfSlamNode::odomCallback(const nav_msgs::Odometry::ConstPtr& msg) {
+std::uint64_t EkfSlamNode::SeqGaps::check(std::uint32_t seq) {
+  // seq 0 is what publishers that do not count leave; a huge step is a restarted publisher.
+  std::uint64_t gap = 0;
+  if (have && seq > last + 1 && seq - last < 1000000u) gap = seq - last - 1;
+  missing += gap;
+  have = seq != 0;
+  last = seq;
+  return gap;
+}
+
+void EkfSlamNode::receive(Inbound in) {
+  {
+    std::lock_guard<std::mutex> lock(inbox_mutex_);
+    if (inbox_.size() >= static_cast<std::size_t>(config_.queue_size)) {
+      inbox_.pop_front();  // the oldest is the least useful; counted and warned about below
+      ++inbox_overflow_;
+    }
+    inbox_.push_back(std::move(in));
+    inbox_peak_ = std::max(inbox_peak_, inbox_.size());
+  }
+  inbox_cv_.notify_one();
+}
+
+void EkfSlamNode::spin() {
+  ros::CallbackQueue* global = ros::getGlobalCallbackQueue();
+  std::deque<Inbound> batch;
+  std::uint64_t overflow_reported = 0;
+  while (ros::ok()) {
+    std::uint64_t overflow = 0;
+    {
+      std::unique_lock<std::mutex> lock(inbox_mutex_);
+      inbox_cv_.wait_for(lock, std::chrono::milliseconds(5), [this] { return !inbox_.empty(); });
+      batch.swap(inbox_);
+      overflow = inbox_overflow_;
+    }
+    if (overflow > overflow_reported) {
+      overflow_reported = overflow;
+      ROS_WARN_THROTTLE(5.0,
+                        "ekf_slam: processing cannot keep up: %lu messages dropped from the "
+                        "inbox (queue_size %d)",
+                        static_cast<unsigned long>(overflow), config_.queue_size);
+    }
+    for (const Inbound& in : batch) handle(in);
+    batch.clear();
+    global->callAvailable(ros::WallDuration(0));  // timers and services
+  }
+}
+
+void EkfSlamNode::handle(const Inbound& in) {
   last_input_ = ros::WallTime::now();
+  if (in.odom) handleOdometry(in.odom);
+  if (in.scan) handleScan(in.scan, in.received);
+  if (in.observations) handleObservations(in.observations, in.received);
+}
+
+void EkfSlamNode::handleOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
+  ++odometry_received_;
+  ++odom_rate_.count;
+  if (const std::uint64_t gap = odom_gaps_.check(msg->header.seq)) {
+    ROS_WARN_THROTTLE(5.0, "ekf_slam: %lu odometry messages missing (header.seq gaps; %lu so far)",
+                      static_cast<unsigned long>(gap),
+                      static_cast<unsigned long>(odom_gaps_.missing));
+  }
+  // The twist is taken as base_frame's motion and the pose as odom_frame -> base_frame: say so
+  // when the message names other frames (empty names are accepted as "unspecified").
+  const bool parent_ok = msg->header.frame_id.empty() || msg->header.frame_id == config_.odom_frame;
+  const bool child_ok = msg->child_frame_id.empty() || msg->child_frame_id == config_.base_frame;
+  if (!parent_ok || !child_ok) {
+    if (odom_frame_mismatches_++ == 0) {
+      ROS_WARN(
+          "ekf_slam: odometry is %s -> %s, the node is configured for odom_frame %s -> "
+          "base_frame %s: its twist is used as %s's (set odom_frame / base_frame to match)",
+          msg->header.frame_id.c_str(), msg->child_frame_id.c_str(), config_.odom_frame.c_str(),
+          config_.base_frame.c_str(), config_.base_frame.c_str());
+    }
+  }
   if (msg->header.stamp.isZero()) {
     ++skipped_bad_stamp_;
     ROS_WARN_THROTTLE(5.0, "ekf_slam: odometry with a zero stamp skipped (%lu inputs so far)",
@@ -170,31 +311,34 @@ void EkfSlamNode::odomCallback(const nav_msgs::Odometry::ConstPtr& msg) {
   drain();
 }
 
-void EkfSlamNode::scanCallback(const sensor_msgs::LaserScan::ConstPtr& msg) {
-  last_input_ = ros::WallTime::now();
+void EkfSlamNode::handleScan(const sensor_msgs::LaserScan::ConstPtr& msg, ros::WallTime received) {
   ++scans_received_;
+  ++scan_rate_.count;
   // header.seq counts the publisher's messages: a gap means scans lost on the way (queue
   // overflow in transport, or upstream), which roscpp would not report.
-  if (have_scan_seq_ && msg->header.seq > last_scan_seq_ + 1 &&
-      msg->header.seq - last_scan_seq_ < 1000000u) {
-    upstream_gaps_ += msg->header.seq - last_scan_seq_ - 1;
+  if (scan_gaps_.check(msg->header.seq) > 0) {
     ROS_WARN_THROTTLE(5.0, "ekf_slam: %lu scans missing so far (header.seq gaps)",
-                      static_cast<unsigned long>(upstream_gaps_));
+                      static_cast<unsigned long>(scan_gaps_.missing));
   }
-  have_scan_seq_ = msg->header.seq != 0;
-  last_scan_seq_ = msg->header.seq;
   if (!acceptSensor(msg->header, "scan")) return;
   SensorInput in;
   in.scan = msg;
+  in.received = received;
   enqueue(msg->header.stamp.toSec(), std::move(in));
 }
 
-void EkfSlamNode::observationsCallback(const LandmarkObservationArray::ConstPtr& msg) {
-  last_input_ = ros::WallTime::now();
+void EkfSlamNode::handleObservations(const LandmarkObservationArray::ConstPtr& msg,
+                                     ros::WallTime received) {
   ++scans_received_;
+  ++scan_rate_.count;
+  if (observation_gaps_.check(msg->header.seq) > 0) {
+    ROS_WARN_THROTTLE(5.0, "ekf_slam: %lu observation messages missing so far (header.seq gaps)",
+                      static_cast<unsigned long>(observation_gaps_.missing));
+  }
   if (!acceptSensor(msg->header, "observations")) return;
   SensorInput in;
   in.observations = msg;
+  in.received = received;
   enqueue(msg->header.stamp.toSec(), std::move(in));
 }
 
@@ -335,6 +479,10 @@ void EkfSlamNode::process(const SensorInput& input, double stamp) {
     ROS_WARN_THROTTLE(5.0, "ekf_slam: scan at %.3f older than the filter: used at %.3f (%lu)",
                       stamp, pipeline_->time(), static_cast<unsigned long>(c.late_scans));
   }
+  const double latency = (ros::WallTime::now() - input.received).toSec();
+  latency_sum_ += latency;
+  latency_max_ = std::max(latency_max_, latency);
+  ++latency_count_;
   publish(report);
 }
 
@@ -366,49 +514,103 @@ void EkfSlamNode::publish(const ScanReport& report) {
     associations_pub_.publish(toAssociationStats(
         report, config_.associator, pipeline_->ekf().numLandmarks(), config_.map_frame, stamp));
   }
-  if (map_pub_.getNumSubscribers() > 0) {
-    map_pub_.publish(toLandmarkArray(*pipeline_, config_.map_frame, stamp));
-  }
-  if (config_.publish_tf) publishTransform(stamp);
+  // Latched: a late subscriber (rviz started mid-run) must get today's map, not none.
+  map_pub_.publish(toLandmarkArray(*pipeline_, config_.map_frame, stamp));
 
+  if (config_.publish_tf) {
+    map_base_ = pose;
+    map_base_stamp_ = stamp;
+    map_base_since_ = ros::WallTime::now();
+    map_base_pending_ = true;
+    updateMapToOdom();
+  }
   visualization_dirty_ = true;
-  if (config_.visualization_rate <= 0.0) publishVisualization();
+  if (config_.visualization_rate <= 0.0) publishMapOutputs();
 }
 
-void EkfSlamNode::publishTransform(const ros::Time& stamp) {
-  const Eigen::Vector3d map_base = pipeline_->pose();
-  const ros::Time tf_stamp = stamp + ros::Duration(config_.transform_tolerance);
+void EkfSlamNode::updateMapToOdom() {
+  if (!map_base_pending_) return;
+  const ros::Time tf_stamp = map_base_stamp_ + ros::Duration(config_.transform_tolerance);
   if (config_.publish_map_to_base) {
-    tf_broadcaster_.sendTransform(
-        toTransformMsg(map_base, config_.map_frame, config_.base_frame, tf_stamp));
+    map_base_pending_ = false;
+    map_odom_ = map_base_;  // "odom" is base_frame here: the transform is map -> base_frame
+    have_map_odom_ = true;
+    sendMapTransform(tf_stamp);
     return;
   }
-  if (!have_odometry_) {
-    ROS_WARN_THROTTLE(10.0, "ekf_slam: no odometry yet: %s -> %s not published",
-                      config_.map_frame.c_str(), config_.odom_frame.c_str());
-    return;
+  // REP-105: map -> odom = (map -> base) * (odom -> base)^-1, both at the scan stamp. odom ->
+  // base comes from tf, as whoever owns that transform publishes it (robot_localization, a
+  // driver); from the Odometry message only when this node is that owner, or tf has nothing.
+  Eigen::Vector3d odom_base;
+  bool have = false;
+  if (!config_.publish_odom_tf) {
+    try {
+      if (tf_buffer_.canTransform(config_.odom_frame, config_.base_frame, map_base_stamp_)) {
+        odom_base = toPose2(
+            tf_buffer_.lookupTransform(config_.odom_frame, config_.base_frame, map_base_stamp_)
+                .transform);
+        have = odom_base.allFinite();
+      }
+    } catch (const tf2::TransformException&) {
+      have = false;
+    }
+    if (!have && (ros::WallTime::now() - map_base_since_).toSec() < kOdomTfWait) {
+      return;  // tf at the scan stamp may still be on its way: the transform timer retries
+    }
   }
-  // REP-105: map -> odom = (map -> base) * (odom -> base)^-1, both at the scan stamp; the odometry
-  // pose is carried from its last message to the stamp with that message's twist.
-  const double dt = stamp.toSec() - last_odometry_.stamp;
-  const Eigen::Vector3d odom_base =
-      dt > 0.0 ? extrapolate(last_odometry_.pose, last_odometry_.twist, dt) : last_odometry_.pose;
-  const Eigen::Vector3d map_odom = compose(map_base, inverse(odom_base));
+  if (!have) {
+    if (!have_odometry_) {
+      ROS_WARN_THROTTLE(10.0, "ekf_slam: no odometry and no tf %s -> %s: %s -> %s not published",
+                        config_.odom_frame.c_str(), config_.base_frame.c_str(),
+                        config_.map_frame.c_str(), config_.odom_frame.c_str());
+      return;
+    }
+    if (!config_.publish_odom_tf) {
+      ++odom_tf_fallbacks_;
+      ROS_WARN_THROTTLE(10.0,
+                        "ekf_slam: no tf %s -> %s at the scan stamp: map -> odom from the "
+                        "Odometry message's pose instead (%lu times)",
+                        config_.odom_frame.c_str(), config_.base_frame.c_str(),
+                        static_cast<unsigned long>(odom_tf_fallbacks_));
+    }
+    // The odometry pose of the last message, carried to the stamp with its twist.
+    const double dt = map_base_stamp_.toSec() - last_odometry_.stamp;
+    odom_base =
+        dt > 0.0 ? extrapolate(last_odometry_.pose, last_odometry_.twist, dt) : last_odometry_.pose;
+  }
+  map_base_pending_ = false;
+  const Eigen::Vector3d map_odom = compose(map_base_, inverse(odom_base));
   if (!map_odom.allFinite()) return;
-  tf_broadcaster_.sendTransform(
-      toTransformMsg(map_odom, config_.map_frame, config_.odom_frame, tf_stamp));
+  map_odom_ = map_odom;
+  have_map_odom_ = true;
+  sendMapTransform(tf_stamp);
 }
 
-void EkfSlamNode::publishVisualization() {
+void EkfSlamNode::sendMapTransform(const ros::Time& stamp) {
+  // tf2 warns about repeated stamps and drops older ones: keep them strictly increasing.
+  if (!have_map_odom_ || stamp <= last_tf_stamp_) return;
+  last_tf_stamp_ = stamp;
+  const std::string& child = config_.publish_map_to_base ? config_.base_frame : config_.odom_frame;
+  tf_broadcaster_.sendTransform(toTransformMsg(map_odom_, config_.map_frame, child, stamp));
+}
+
+void EkfSlamNode::onTransformTimer(const ros::WallTimerEvent&) {
+  updateMapToOdom();
+  // Between scans the last map -> odom still holds (odom -> base carries the motion); stamped
+  // ahead of now, as gmapping and slam_toolbox do, so lookups at now() succeed.
+  const ros::Time now = ros::Time::now();
+  if (now.isZero()) return;  // simulated time without /clock yet
+  sendMapTransform(now + ros::Duration(config_.transform_tolerance));
+}
+
+void EkfSlamNode::publishMapOutputs() {
   if (!visualization_dirty_) return;
   visualization_dirty_ = false;
-  if (path_pub_.getNumSubscribers() > 0) path_pub_.publish(path_);
-  if (markers_pub_.getNumSubscribers() > 0) {
-    markers_pub_.publish(markers_.build(*pipeline_, config_.map_frame, last_stamp_));
-  }
+  path_pub_.publish(path_);
+  markers_pub_.publish(markers_.build(*pipeline_, config_.map_frame, last_stamp_));
 }
 
-void EkfSlamNode::onVisualizationTimer(const ros::WallTimerEvent&) { publishVisualization(); }
+void EkfSlamNode::onVisualizationTimer(const ros::WallTimerEvent&) { publishMapOutputs(); }
 
 void EkfSlamNode::onInputTimer(const ros::WallTimerEvent&) {
   // Inputs stopped (end of a bag, a dead driver): what waits for odometry is used now.
@@ -421,15 +623,109 @@ void EkfSlamNode::onInputTimer(const ros::WallTimerEvent&) {
   drain();
 }
 
+void EkfSlamNode::onDiagnosticsTimer(const ros::WallTimerEvent&) {
+  const ros::WallTime now = ros::WallTime::now();
+  const double period = std::max(1e-3, (now - last_diagnostics_).toSec());
+  last_diagnostics_ = now;
+  std::uint64_t overflow = 0;
+  std::size_t inbox = 0, peak = 0;
+  {
+    std::lock_guard<std::mutex> lock(inbox_mutex_);
+    overflow = inbox_overflow_;
+    inbox = inbox_.size();
+    peak = inbox_peak_;
+  }
+  const PipelineCounters& c = pipeline_->counters();
+  const SequencerCounters& q = sequencer_->counters();
+  const auto rate = [period](RateWindow* w) {
+    const double hz = static_cast<double>(w->count - w->at_last_report) / period;
+    w->at_last_report = w->count;
+    return hz;
+  };
+
+  diagnostic_msgs::DiagnosticArray array;
+  array.header.stamp = ros::Time::now();
+  const std::string hw = ros::this_node::getName();
+
+  // Inputs: anything lost or skipped is a warning (a lost message changes the map).
+  diagnostic_msgs::DiagnosticStatus in;
+  in.name = hw + ": inputs";
+  in.hardware_id = hw;
+  const std::uint64_t lost =
+      overflow + odom_gaps_.missing + scan_gaps_.missing + observation_gaps_.missing;
+  const std::uint64_t skipped = skipped_no_tf_ + skipped_bad_stamp_ + q.invalid_stamps;
+  in.level = diagnostic_msgs::DiagnosticStatus::OK;
+  in.message = "no input lost";
+  if (lost > 0 || skipped > 0) {
+    in.level = diagnostic_msgs::DiagnosticStatus::WARN;
+    in.message = std::to_string(lost) + " messages lost, " + std::to_string(skipped) + " skipped";
+  }
+  in.values = {keyValue("odometry rate [Hz]", rate(&odom_rate_)),
+               keyValue("scan rate [Hz]", rate(&scan_rate_)),
+               keyValue("odometry received", odometry_received_),
+               keyValue("scans received", scans_received_),
+               keyValue("odometry missing (seq gaps)", odom_gaps_.missing),
+               keyValue("scans missing (seq gaps)", scan_gaps_.missing),
+               keyValue("observations missing (seq gaps)", observation_gaps_.missing),
+               keyValue("inbox overflow drops", overflow),
+               keyValue("skipped without tf", skipped_no_tf_),
+               keyValue("skipped zero stamps", skipped_bad_stamp_),
+               keyValue("dropped non-finite stamps", q.invalid_stamps),
+               keyValue("late odometry (skipped)", c.late_odometry),
+               keyValue("late scans (used at filter time)", c.late_scans),
+               keyValue("odometry frame mismatches", odom_frame_mismatches_)};
+  array.status.push_back(in);
+
+  diagnostic_msgs::DiagnosticStatus proc;
+  proc.name = hw + ": processing";
+  proc.hardware_id = hw;
+  const double mean_latency = latency_count_ ? latency_sum_ / latency_count_ : 0.0;
+  proc.level = diagnostic_msgs::DiagnosticStatus::OK;
+  proc.message = "tracking, " + std::to_string(pipeline_->ekf().numLandmarks()) + " landmarks";
+  if (c.rejected_updates > 0 || c.rejected_odometry > 0) {
+    proc.level = diagnostic_msgs::DiagnosticStatus::WARN;
+    proc.message += "; " + std::to_string(c.rejected_updates) + " updates and " +
+                    std::to_string(c.rejected_odometry) + " odometry messages rejected";
+  }
+  proc.values = {keyValue("associator", config_.associator),
+                 keyValue("mode", pipeline_config_.mode),
+                 keyValue("scans processed", scans_processed_),
+                 keyValue("latency mean [ms]", 1e3 * mean_latency),
+                 keyValue("latency max [ms]", 1e3 * latency_max_),
+                 keyValue("inbox now", inbox),
+                 keyValue("inbox peak", peak),
+                 keyValue("sequencer pending", sequencer_->pending()),
+                 keyValue("landmarks", pipeline_->ekf().numLandmarks()),
+                 keyValue("resets", resets_),
+                 keyValue("time jumps", q.time_jumps),
+                 keyValue("rejected updates", c.rejected_updates),
+                 keyValue("rejected odometry", c.rejected_odometry),
+                 keyValue("empty scans", c.empty_scans),
+                 keyValue("invalid ranges", c.invalid_ranges),
+                 keyValue("invalid observations", c.invalid_observations),
+                 keyValue("map frozen: new landmarks not added", c.frozen_new),
+                 keyValue("map frozen: removals not applied", c.frozen_removals),
+                 keyValue("map -> odom from the Odometry pose (no tf)", odom_tf_fallbacks_)};
+  array.status.push_back(proc);
+  latency_sum_ = latency_max_ = 0.0;
+  latency_count_ = 0;
+  diagnostics_pub_.publish(array);
+}
+
 void EkfSlamNode::resetAll(const std::string& why) {
   ROS_WARN("ekf_slam: reset (%s)", why.c_str());
+  ++resets_;
   pipeline_->reset();
   path_.poses.clear();
   markers_.reset();
   have_odometry_ = false;
+  map_base_pending_ = false;
+  have_map_odom_ = false;
+  last_tf_stamp_ = ros::Time();
   tf_buffer_.clear();
+  map_pub_.publish(toLandmarkArray(*pipeline_, config_.map_frame, last_stamp_));
   visualization_dirty_ = true;
-  publishVisualization();
+  publishMapOutputs();
 }
 
 // --- services -------------------------------------------------------------------------------
@@ -477,11 +773,9 @@ bool EkfSlamNode::loadMapService(LoadMap::Request& req, LoadMap::Response& res) 
         "loaded " + std::to_string(pipeline_->ekf().numLandmarks()) + " landmarks from " + path;
     ROS_INFO("ekf_slam: %s", res.message.c_str());
     markers_.reset();
-    if (map_pub_.getNumSubscribers() > 0) {
-      map_pub_.publish(toLandmarkArray(*pipeline_, config_.map_frame, last_stamp_));
-    }
+    map_pub_.publish(toLandmarkArray(*pipeline_, config_.map_frame, last_stamp_));
     visualization_dirty_ = true;
-    publishVisualization();
+    publishMapOutputs();
   } catch (const std::exception& e) {
     res.success = false;
     res.message = e.what();
@@ -494,9 +788,16 @@ std::string EkfSlamNode::summary() const {
   const PipelineCounters& c = pipeline_->counters();
   const SequencerCounters& s = sequencer_->counters();
   std::ostringstream out;
+  std::uint64_t overflow = 0;
+  {
+    std::lock_guard<std::mutex> lock(inbox_mutex_);
+    overflow = inbox_overflow_;
+  }
   out << "scans received " << scans_received_ << ", processed " << scans_processed_
-      << ", missing upstream (seq gaps) " << upstream_gaps_ << ", skipped without tf "
-      << skipped_no_tf_ << ", zero stamps " << skipped_bad_stamp_ << "; odometry " << c.odometry
+      << ", missing upstream (seq gaps) " << scan_gaps_.missing + observation_gaps_.missing
+      << ", skipped without tf " << skipped_no_tf_ << ", zero stamps " << skipped_bad_stamp_
+      << "; odometry received " << odometry_received_ << ", missing (seq gaps) "
+      << odom_gaps_.missing << ", used " << c.odometry << "; inbox overflow " << overflow
       << "; late odometry " << s.late_odometry << ", late scans " << s.late_scans << ", time jumps "
       << s.time_jumps << ", released by latency " << s.released_by_latency
       << ", input-timeout flushes " << flushes_ << "; empty scans " << c.empty_scans
@@ -517,7 +818,7 @@ int runEkfSlamNode() {
     ROS_FATAL("ekf_slam: cannot start: %s", e.what());
     return 1;
   }
-  ros::spin();
+  node->spin();
   // rosconsole is gone once roscpp has shut down (Ctrl-C): plain stderr for the last words.
   std::fprintf(stderr, "ekf_slam: %s\n", node->summary().c_str());
   return 0;

@@ -108,7 +108,7 @@ const visualization_msgs::MarkerArray& LandmarkMarkers::build(const SlamPipeline
       m.pose.position.x = p.x();
       m.pose.position.y = p.y();
       m.pose.position.z = style_.height + 0.5;
-      m.scale.z = 0.8;  // text height
+      m.scale.z = style_.text_size;
       m.text = std::to_string(id);
       setColor(&m, 1.0f, 1.0f, 1.0f, 0.9f);
     }

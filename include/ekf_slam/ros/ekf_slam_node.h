@@ -3,20 +3,25 @@
 // pipeline and publishes the results:
 //
 //   scan (LaserScan) / observations (LandmarkObservationArray) / odom (Odometry)
-//     -> InputSequencer -> SlamPipeline (extract -> associate -> EKF update)
-//     -> ~pose, ~path, ~landmarks (markers), ~map, ~associations, tf map -> odom
+//     -> (receiving thread) inbox -> (processing thread) InputSequencer
+//     -> SlamPipeline (extract -> associate -> EKF update)
+//     -> ~pose, ~path, ~landmarks (markers), ~map, ~associations, tf map -> odom, /diagnostics
 //
 // Parameters, topics and services: docs/node.md.
 #pragma once
 
+#include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
 
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 #include <std_srvs/Empty.h>
@@ -44,11 +49,17 @@ struct NodeConfig {
   bool publish_tf = true;            ///< map -> odom (or map -> base_frame, see below)
   bool publish_map_to_base = false;  ///< no odom frame: publish map -> base_frame instead
   bool publish_odom_tf = false;      ///< broadcast odom -> base_frame from each odometry message
-  double transform_tolerance = 0.1;  ///< map -> odom is stamped this much after the scan [s]
-  double visualization_rate = 5.0;   ///< ~landmarks and ~path, wall-clock Hz; 0: every scan
-  double input_timeout = 1.0;        ///< wall seconds without input before pending ones flush
-  int queue_size = 1000;             ///< subscriber queues (roscpp drops silently on overflow)
-  std::string map_file;              ///< default path of ~save_map / ~load_map
+  double transform_tolerance = 0.1;  ///< map -> odom is stamped this much ahead [s]
+  /// Wall period of the timer that republishes the latest map -> odom (gmapping's and
+  /// slam_toolbox's transform_publish_period); 0: only after each scan [s].
+  double transform_publish_period = 0.05;
+  double visualization_rate = 5.0;  ///< ~landmarks and ~path, wall-clock Hz; 0: every scan
+  double diagnostics_period = 1.0;  ///< /diagnostics, wall seconds; 0: off
+  double input_timeout = 1.0;       ///< wall seconds without input before pending ones flush
+  /// Subscriber queues, and the bound of the node's own inbox between the receiving thread and
+  /// the processing thread (overflow is counted and warned about, never silent).
+  int queue_size = 100000;
+  std::string map_file;  ///< default path of ~save_map / ~load_map
   MarkerStyle markers;
 };
 
@@ -59,6 +70,11 @@ class EkfSlamNode {
   EkfSlamNode(ros::NodeHandle nh, ros::NodeHandle pnh);
   ~EkfSlamNode();
 
+  /// Processes inputs until ROS shuts down. Messages are received on a thread of their own
+  /// (a slow scan never stalls the reception of odometry); the caller's thread processes them
+  /// in arrival order and serves the timers and services.
+  void spin();
+
   const SlamPipeline& pipeline() const { return *pipeline_; }
   /// One line of counters (inputs received, processed, skipped, late, ...).
   std::string summary() const;
@@ -68,14 +84,38 @@ class EkfSlamNode {
   struct SensorInput {
     sensor_msgs::LaserScan::ConstPtr scan;
     LandmarkObservationArray::ConstPtr observations;
+    ros::WallTime received;  ///< for the processing latency
+  };
+  /// A message as received, waiting for the processing thread.
+  struct Inbound {
+    nav_msgs::Odometry::ConstPtr odom;
+    sensor_msgs::LaserScan::ConstPtr scan;
+    LandmarkObservationArray::ConstPtr observations;
+    ros::WallTime received;
+  };
+  /// Messages missing by header.seq, per input (transport drops or upstream losses).
+  struct SeqGaps {
+    std::uint64_t missing = 0;
+    std::uint32_t last = 0;
+    bool have = false;
+    /// Returns the number of messages missing before this one.
+    std::uint64_t check(std::uint32_t seq);
+  };
+  /// Input rates over the last diagnostics period.
+  struct RateWindow {
+    std::uint64_t count = 0, at_last_report = 0;
   };
 
   /// Every parameter, in one place.
   void readParameters();
 
-  void odomCallback(const nav_msgs::Odometry::ConstPtr& msg);
-  void scanCallback(const sensor_msgs::LaserScan::ConstPtr& msg);
-  void observationsCallback(const LandmarkObservationArray::ConstPtr& msg);
+  // Receiving thread: queue the message, nothing else.
+  void receive(Inbound in);
+  // Processing thread.
+  void handle(const Inbound& in);
+  void handleOdometry(const nav_msgs::Odometry::ConstPtr& msg);
+  void handleScan(const sensor_msgs::LaserScan::ConstPtr& msg, ros::WallTime received);
+  void handleObservations(const LandmarkObservationArray::ConstPtr& msg, ros::WallTime received);
 
   /// Common checks of a sensor message: stamp and the sensor's pose on base_link from tf.
   bool acceptSensor(const std_msgs::Header& header, const char* topic);
@@ -85,10 +125,15 @@ class EkfSlamNode {
   void drain();
   void process(const SensorInput& input, double stamp);
   void publish(const ScanReport& report);
-  void publishTransform(const ros::Time& stamp);
-  void publishVisualization();
+  /// map -> odom from the pose at the last scan and odom -> base_frame at its stamp.
+  void updateMapToOdom();
+  void sendMapTransform(const ros::Time& stamp);
+  /// The latched outputs (~map, ~landmarks, ~path): always the current state, subscribers or not.
+  void publishMapOutputs();
   void onInputTimer(const ros::WallTimerEvent&);
   void onVisualizationTimer(const ros::WallTimerEvent&);
+  void onTransformTimer(const ros::WallTimerEvent&);
+  void onDiagnosticsTimer(const ros::WallTimerEvent&);
   void resetAll(const std::string& why);
 
   bool resetService(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
@@ -113,10 +158,19 @@ class EkfSlamNode {
   std::string current_sensor_frame_;
   std::unordered_set<std::string> tf_waited_;  ///< frames whose first tf lookup has waited
 
+  // Reception: its own callback queue and thread; the inbox hands messages over.
+  ros::CallbackQueue input_queue_;
+  std::unique_ptr<ros::AsyncSpinner> input_spinner_;
+  mutable std::mutex inbox_mutex_;
+  std::condition_variable inbox_cv_;
+  std::deque<Inbound> inbox_;
+  std::uint64_t inbox_overflow_ = 0;  ///< guarded by inbox_mutex_
+  std::size_t inbox_peak_ = 0;        ///< guarded by inbox_mutex_
+
   ros::Subscriber odom_sub_, scan_sub_, observations_sub_;
-  ros::Publisher pose_pub_, path_pub_, markers_pub_, map_pub_, associations_pub_;
+  ros::Publisher pose_pub_, path_pub_, markers_pub_, map_pub_, associations_pub_, diagnostics_pub_;
   ros::ServiceServer reset_srv_, save_srv_, load_srv_;
-  ros::WallTimer input_timer_, visualization_timer_;
+  ros::WallTimer input_timer_, visualization_timer_, transform_timer_, diagnostics_timer_;
 
   nav_msgs::Path path_;
   bool visualization_dirty_ = false;
@@ -126,15 +180,30 @@ class EkfSlamNode {
   OdometryInput last_odometry_;
   ros::WallTime last_input_;
 
-  // Inputs that needed handling, reported with warnings and in the shutdown summary.
+  // map -> odom: the pose at the last scan waits for odom -> base_frame at its stamp.
+  bool map_base_pending_ = false;
+  ros::Time map_base_stamp_;
+  Eigen::Vector3d map_base_ = Eigen::Vector3d::Zero();
+  ros::WallTime map_base_since_;
+  bool have_map_odom_ = false;
+  Eigen::Vector3d map_odom_ = Eigen::Vector3d::Zero();
+  ros::Time last_tf_stamp_;  ///< newest map transform sent (stamps must increase)
+
+  // Inputs that needed handling, reported with warnings, on /diagnostics and at exit.
   std::uint64_t scans_received_ = 0;
   std::uint64_t scans_processed_ = 0;
+  std::uint64_t odometry_received_ = 0;
   std::uint64_t skipped_no_tf_ = 0;
   std::uint64_t skipped_bad_stamp_ = 0;
-  std::uint64_t upstream_gaps_ = 0;  ///< scans missing by header.seq (transport or upstream)
-  std::uint32_t last_scan_seq_ = 0;
-  bool have_scan_seq_ = false;
+  std::uint64_t odom_frame_mismatches_ = 0;
+  std::uint64_t odom_tf_fallbacks_ = 0;  ///< map -> odom from the Odometry pose, tf missing
+  SeqGaps scan_gaps_, odom_gaps_, observation_gaps_;
+  RateWindow scan_rate_, odom_rate_;
+  ros::WallTime last_diagnostics_;
+  double latency_sum_ = 0.0, latency_max_ = 0.0;  ///< since the last diagnostics report [s]
+  std::uint64_t latency_count_ = 0;
   std::uint64_t flushes_ = 0;
+  std::uint64_t resets_ = 0;
 };
 
 /// The whole node: construct, spin, report. Returns the process exit code (non-zero when the

@@ -2,8 +2,7 @@
 
 # Message <-> pipeline bridges, shared by the node and the offline runner.
 add_library(ekf_slam_conversions src/ros/conversions.cpp)
-target_include_directories(ekf_slam_conversions PUBLIC include ${CATKIN_DEVEL_PREFIX}/include
-                                                       ${catkin_INCLUDE_DIRS})
+target_include_directories(ekf_slam_conversions PUBLIC include)
 target_link_libraries(ekf_slam_conversions PUBLIC ekf_slam_core ${catkin_LIBRARIES})
 add_dependencies(ekf_slam_conversions ${PROJECT_NAME}_generate_messages_cpp)
 
@@ -24,13 +23,12 @@ install(TARGETS ekf_slam_conversions ekf_slam_node ekf_slam_node_main
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(DIRECTORY launch rviz DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
-install(FILES config/simulation.yaml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/config)
+install(FILES config/simulation.yaml config/robot.yaml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/config)
 # GPS fixes as a path for rviz (victoria_park.launch).
 catkin_install_python(PROGRAMS scripts/gps_path.py
   DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 if(CATKIN_ENABLE_TESTING)
-  find_package(rostest REQUIRED)
 
   catkin_add_gtest(test_conversions test/test_conversions.cpp)
   target_link_libraries(test_conversions ekf_slam_conversions)

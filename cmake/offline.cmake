@@ -6,8 +6,7 @@ target_sources(ekf_slam_core PRIVATE ${PROJECT_SOURCE_DIR}/src/core/trajectory_m
 
 # The runner feeds the bag through the node's conversions, InputSequencer and SlamPipeline.
 add_library(ekf_slam_offline_runner src/ros/offline_runner.cpp)
-target_include_directories(ekf_slam_offline_runner PUBLIC include ${CATKIN_DEVEL_PREFIX}/include
-                                                          ${catkin_INCLUDE_DIRS})
+target_include_directories(ekf_slam_offline_runner PUBLIC include)
 target_link_libraries(ekf_slam_offline_runner
   PUBLIC ekf_slam_conversions ekf_slam_ros ekf_slam_tools ${catkin_LIBRARIES}
   PRIVATE nlohmann_json::nlohmann_json)
@@ -22,7 +21,8 @@ install(TARGETS ekf_slam_offline_runner ekf_slam_offline
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
-install(PROGRAMS scripts/plot_map.py DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/scripts)
+# Run as `python3 plot_map.py` by the offline runner, found in the package share folder.
+install(FILES scripts/plot_map.py DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/scripts)
 install(FILES config/victoria_park.yaml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/config)
 
 if(CATKIN_ENABLE_TESTING)

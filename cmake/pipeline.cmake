@@ -7,6 +7,7 @@ target_sources(ekf_slam_core PRIVATE
 # Synthetic timing of a Victoria-Park-sized run (prints numbers, asserts nothing about time).
 add_executable(bench_pipeline ${PROJECT_SOURCE_DIR}/bench/bench_pipeline.cpp)
 target_link_libraries(bench_pipeline ekf_slam_core)
+install(TARGETS bench_pipeline RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 if(CATKIN_ENABLE_TESTING)
   foreach(t test_slam_pipeline test_input_sequencer test_pipeline_config)

@@ -3,8 +3,7 @@
 # played with launch/simulation.launch or replayed with ekf_slam_offline.
 
 add_library(ekf_slam_simulation_bag src/ros/simulation_bag.cpp)
-target_include_directories(ekf_slam_simulation_bag PUBLIC include ${CATKIN_DEVEL_PREFIX}/include
-                                                          ${catkin_INCLUDE_DIRS})
+target_include_directories(ekf_slam_simulation_bag PUBLIC include)
 target_link_libraries(ekf_slam_simulation_bag PUBLIC ekf_slam_core ekf_slam_conversions ${catkin_LIBRARIES})
 add_dependencies(ekf_slam_simulation_bag ${PROJECT_NAME}_generate_messages_cpp)
 
@@ -19,7 +18,6 @@ install(TARGETS ekf_slam_simulation_bag simulate
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 if(CATKIN_ENABLE_TESTING)
-  find_package(rostest REQUIRED)
 
   # Writes the tiny world's bag, reads it back, replays it with the offline runner (which loads
   # the plugins).

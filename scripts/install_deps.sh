@@ -7,7 +7,8 @@ PACKAGES=(
   build-essential cmake pkg-config libgtest-dev libbenchmark-dev libeigen3-dev
   ros-core-dev libtf2-ros-dev pluginlib-dev python3-rostest rosbash
   python3-sensor-msgs python3-nav-msgs python3-geometry-msgs python3-visualization-msgs
-  python3-tf2-msgs
+  python3-tf2-msgs libdiagnostic-msgs-dev python3-diagnostic-msgs python3-std-srvs tf2-tools
+  catkin-lint python3-rosdep2
   libmatio-dev nlohmann-json3-dev libyaml-cpp-dev python3-matplotlib
 )
 if [[ "${EKF_SLAM_WITH_RVIZ:-0}" == 1 ]]; then

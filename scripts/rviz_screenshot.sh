@@ -3,24 +3,23 @@
 # it fast through launch/victoria_park.launch under Xvfb and grabs the screen with ImageMagick.
 # Not part of the test suite (about two minutes). Needs the optional packages:
 #   EKF_SLAM_WITH_RVIZ=1 scripts/install_deps.sh
-# Usage: scripts/rviz_screenshot.sh [BUILD_DIR] [OUT.png]
+# Usage: scripts/rviz_screenshot.sh [OUT.png]      (after scripts/build.sh)
 #   env RATE (playback rate, default 25), END (last data second, default: the whole run),
+#   LATE=1 (start rviz only after the playback: shows that the latched outputs hold the map),
 #   ASSOCIATOR (default ekf_slam/DJNN), GPS_X / GPS_Y / GPS_YAW (see the launch file),
 #   VERBOSE=1 (print the launch log). The log, with the node's exit summary, is kept in
 #   /tmp/ekf_slam_rviz_screenshot.log.
 set -eo pipefail
 
-ROOT=$(cd "$(dirname "$0")/.." && pwd)
-BUILD=${1:-$ROOT/build}
-OUT=${2:-$ROOT/docs/images/rviz_victoria_park.png}
+source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
+OUT=${1:-$EKF_SLAM_ROOT/docs/images/rviz_victoria_park.png}
 RATE=${RATE:-25}
 ASSOCIATOR=${ASSOCIATOR:-ekf_slam/DJNN}
 PORT=${PORT:-11731}
 DISPLAY_NUM=${DISPLAY_NUM:-97}
 
-export PATH=/usr/bin:$PATH ROS_HOSTNAME=localhost  # Debian's python3 has rospy
 # shellcheck disable=SC1091
-source "$BUILD/devel/setup.bash"
+source "$EKF_SLAM_DEVEL/setup.bash"
 export ROS_MASTER_URI=http://localhost:$PORT DISPLAY=:$DISPLAY_NUM
 for tool in Xvfb rviz import; do
   command -v $tool > /dev/null || { echo "missing $tool: EKF_SLAM_WITH_RVIZ=1 scripts/install_deps.sh" >&2; exit 1; }
@@ -39,7 +38,7 @@ cleanup() {
 trap cleanup EXIT
 
 BAG=$TMP/vp.bag
-"$BUILD/devel/lib/ekf_slam/victoria_park_to_bag" --out "$BAG" ${END:+--end "$END"} | tail -1
+"$EKF_SLAM_DEVEL/lib/ekf_slam/victoria_park_to_bag" --out "$BAG" ${END:+--end "$END"} | tail -1
 # Data seconds in the bag, for the wait below.
 SPAN=$(rosbag info -y -k duration "$BAG")
 
@@ -47,7 +46,7 @@ Xvfb :$DISPLAY_NUM -screen 0 1280x720x24 +extension GLX +render -noreset > "$TMP
 PIDS+=($!)
 sleep 2
 roslaunch -p "$PORT" ekf_slam victoria_park.launch bag:="$BAG" rate:="$RATE" \
-  associator:="$ASSOCIATOR" ${GPS_X:+gps_x:=$GPS_X} ${GPS_Y:+gps_y:=$GPS_Y} ${GPS_YAW:+gps_yaw:=$GPS_YAW} \
+  associator:="$ASSOCIATOR" rviz:="$([[ -n $LATE ]] && echo false || echo true)" ${GPS_X:+gps_x:=$GPS_X} ${GPS_Y:+gps_y:=$GPS_Y} ${GPS_YAW:+gps_yaw:=$GPS_YAW} \
   > "$TMP/launch.log" 2>&1 &
 PIDS+=($!)
 
@@ -56,6 +55,14 @@ PIDS+=($!)
 WAIT=$(python3 -c "print(int(15 + $SPAN / $RATE + 6))")
 echo "playing ${SPAN%.*} s of data at ${RATE}x: waiting ${WAIT} s"
 sleep "$WAIT"
+if [[ -n $LATE ]]; then
+  # The run is over: a subscriber that comes now gets the map only if the outputs are latched
+  # and current.
+  echo "playback over; starting rviz now"
+  rviz -d "$EKF_SLAM_ROOT/rviz/ekf_slam.rviz" > "$TMP/rviz.log" 2>&1 &
+  PIDS+=($!)
+  sleep 20
+fi
 [[ -n "$VERBOSE" ]] && tail -40 "$TMP/launch.log"
 mkdir -p "$(dirname "$OUT")"
 import -window root "$TMP/shot.png"

@@ -21,6 +21,7 @@
 #include "ekf_slam/ros/victoria_park_bag.h"
 #include "ekf_slam/tools/association_problem.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
+#include "test_files.h"
 
 namespace fs = std::filesystem;
 namespace vp = ekf_slam::victoria_park;
@@ -71,8 +72,8 @@ class OfflineRunnerTest : public testing::Test {
   }
   void SetUp() override {
     if (dir_ == nullptr) {
-      GTEST_SKIP() << "Victoria Park data not found in " << vp::defaultDataDir()
-                   << " (set VP_DATA)";
+      EKF_SLAM_SKIP_WITHOUT_DATA("Victoria Park data not found in " << vp::defaultDataDir()
+                                                                    << " (set VP_DATA)");
     }
   }
   OfflineOptions options(const std::string& out) const {

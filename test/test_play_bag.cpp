@@ -16,6 +16,7 @@
 
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
+#include "test_files.h"
 
 namespace vp = ekf_slam::victoria_park;
 namespace fs = std::filesystem;
@@ -69,7 +70,8 @@ TEST(PlayBag, ScanOdomAndStaticTransformArrive) {
   vp::BagOptions options;
   options.data_dir = vp::defaultDataDir();
   if (!fs::exists(fs::path(options.data_dir) / "aa3_dr.mat")) {
-    GTEST_SKIP() << "Victoria Park data not found in " << options.data_dir << " (set VP_DATA)";
+    EKF_SLAM_SKIP_WITHOUT_DATA("Victoria Park data not found in " << options.data_dir
+                                                                  << " (set VP_DATA)");
   }
   std::string templ = (fs::temp_directory_path() / "ekf_slam_play_XXXXXX").string();
   ASSERT_NE(mkdtemp(templ.data()), nullptr);

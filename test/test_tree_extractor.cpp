@@ -13,6 +13,7 @@
 
 #include "ekf_slam/core/tree_extractor.h"
 #include "ekf_slam/data/victoria_park.h"
+#include "test_files.h"
 
 namespace ekf_slam {
 namespace {
@@ -249,7 +250,7 @@ class VictoriaParkScans : public ::testing::Test {
   }
   static void TearDownTestSuite() { laser_.reset(); }
   void SetUp() override {
-    if (!laser_) GTEST_SKIP() << "Victoria Park data not found (set VP_DATA)";
+    if (!laser_) EKF_SLAM_SKIP_WITHOUT_DATA("Victoria Park data not found (set VP_DATA)");
   }
   static std::unique_ptr<victoria_park::LaserScans> laser_;
 };

@@ -80,7 +80,7 @@ class WithData : public ::testing::Test {
   void SetUp() override {
     dir_ = vp::defaultDataDir();
     if (!fs::exists(fs::path(dir_) / "aa3_dr.mat")) {
-      GTEST_SKIP() << "Victoria Park data not found in " << dir_ << " (set VP_DATA)";
+      EKF_SLAM_SKIP_WITHOUT_DATA("Victoria Park data not found in " << dir_ << " (set VP_DATA)");
     }
   }
   std::string dir_;

@@ -580,6 +580,19 @@ TEST(UnknownAssociator, ExitsNonZeroListingTheAvailableOnes) {
   fs::remove(log);
 }
 
+// A misspelt parameter stops the node with the name it probably meant.
+TEST(UnknownParameter, ExitsNonZeroNamingTheNearestName) {
+  const std::string log = (fs::temp_directory_path() / "ekf_slam_test_node_misspelt.log").string();
+  const std::string cmd = std::string("'") + EKF_SLAM_NODE_BIN +
+                          "' __name:=ekf_slam_misspelt _sigma_rnage:=0.4 > '" + log + "' 2>&1";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_NE(WEXITSTATUS(status), 0);
+  const std::string text = readFile(log);
+  EXPECT_NE(text.find("sigma_rnage (did you mean sigma_range?)"), std::string::npos) << text;
+  fs::remove(log);
+}
+
 // A frame with two parents breaks every tf consumer: such a configuration does not start.
 TEST(TwoParents, MapToBaseWithOdomTfIsRefused) {
   const std::string log = (fs::temp_directory_path() / "ekf_slam_test_node_parents.log").string();

@@ -10,9 +10,11 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <sensor_msgs/LaserScan.h>
+#include <array>
 #include <nlohmann/json.hpp>
 
 #include "ekf_slam/data/victoria_park.h"
@@ -240,6 +242,35 @@ TEST_F(OfflineRunnerTest, UnknownAssociatorListsTheAvailableNames) {
       EXPECT_NE(what.find(name), std::string::npos) << what;
     }
   }
+}
+
+// A misspelt parameter is an error naming it and the nearest known name, at the top level and in
+// the associator's section: a default used in silence changes the map without a word.
+TEST_F(OfflineRunnerTest, UnknownParameterNamesAreErrors) {
+  for (const auto& [yaml, bad, near] : std::vector<std::array<std::string, 3>>{
+           {"sigma_rnage: 0.5\n", "sigma_rnage", "sigma_range"},
+           {"DJNN:\n  sensor_rnage: 30.0\n", "DJNN/sensor_rnage", "sensor_range"}}) {
+    const std::string params = (*dir_ / "misspelt.yaml").string();
+    std::ofstream(params) << "associator: ekf_slam/DJNN\n" << yaml;
+    OfflineOptions o = options("misspelt");
+    o.params_path = params;
+    std::ostringstream log;
+    try {
+      runOffline(o, log);
+      ADD_FAILURE() << "expected ParameterError for " << bad;
+    } catch (const ParameterError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(bad), std::string::npos) << what;
+      EXPECT_NE(what.find("did you mean " + near), std::string::npos) << what;
+    }
+  }
+  // Node settings (frames, tf, markers) are known names, though the runner does not use them.
+  const std::string params = (*dir_ / "node.yaml").string();
+  std::ofstream(params) << "map_frame: world\ntransform_publish_period: 0.1\n";
+  OfflineOptions o = options("node_settings");
+  o.params_path = params;
+  std::ostringstream log;
+  EXPECT_NO_THROW(runOffline(o, log)) << log.str();
 }
 
 TEST_F(OfflineRunnerTest, EveryAssociatorRunsWithTheSameConfig) {

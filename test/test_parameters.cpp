@@ -4,12 +4,14 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 #include "ekf_slam/core/association/hungarian.h"
 #include "ekf_slam/core/association/jcbb.h"
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/association/nnjcbb.h"
 #include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/recording_parameter_source.h"
 
 namespace ekf_slam {
 namespace {
@@ -94,6 +96,35 @@ TEST(ParameterReader, BadValuesNameTheParameter) {
   expectNamedError([&] { r.flag("flag", true); }, "/ekf_slam/X/flag");
   expectNamedError([&] { r.inRange("neg", 0.0, 0.0, 1.0); }, "/ekf_slam/X/neg");
   expectNamedError([&] { r.fail("anything", "custom"); }, "/ekf_slam/X/anything");
+}
+
+TEST(RecordingParameterSource, NamesWhatNobodyRead) {
+  MapParameterSource inner;
+  inner.set("sigma_range", "0.5");
+  inner.set("sigma_rnage", "0.4");
+  inner.set("mode", "slam");
+  const RecordingParameterSource source(inner, {"mode", "sigma_range", "sigma_rnage"});
+  const ParameterReader r(source);
+  EXPECT_EQ(r.positive("sigma_range", 1.0), 0.5);
+  EXPECT_EQ(r.text("mode", "slam"), "slam");
+  EXPECT_EQ(r.flag("publish_tf", true), true);  // read but not set: fine
+  EXPECT_EQ(source.unread(), std::vector<std::string>({"sigma_rnage"}));
+  EXPECT_TRUE(source.unread({"sigma_rnage"}).empty());
+  try {
+    source.rejectUnread();
+    FAIL() << "expected ParameterError";
+  } catch (const ParameterError& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("unknown parameter sigma_rnage (did you mean sigma_range?)"),
+        std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(RecordingParameterSource, NearestNameIsOnlyACloseOne) {
+  EXPECT_EQ(nearestName("sensor_rnage", {"sensor_range", "range_margin"}), "sensor_range");
+  EXPECT_EQ(nearestName("queue", {"sensor_range", "range_margin"}), "");
+  EXPECT_EQ(nearestName("x", {}), "");
 }
 
 TEST(AssociatorParameters, DefaultsApplied) {

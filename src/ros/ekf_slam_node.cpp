@@ -17,6 +17,7 @@
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/parameters.h"
 #include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/recording_parameter_source.h"
 #include "ekf_slam/ros/conversions.h"
 #include "ekf_slam/ros/ros_parameter_source.h"
 
@@ -171,51 +172,57 @@ EkfSlamNode::~EkfSlamNode() {
   if (input_spinner_) input_spinner_->stop();
 }
 
-void EkfSlamNode::readParameters() {
-  const RosParameterSource source(pnh_);
+NodeConfig readNodeConfig(const ParameterSource& source) {
   const ParameterReader p(source);
-  config_.associator =
-      AssociatorLoader::lookupName(p.text("associator", AssociatorLoader::kDefault));
-  config_.map_frame = p.text("map_frame", config_.map_frame);
-  config_.odom_frame = p.text("odom_frame", config_.odom_frame);
-  config_.base_frame = p.text("base_frame", config_.base_frame);
-  config_.publish_tf = p.flag("publish_tf", config_.publish_tf);
-  config_.publish_map_to_base = p.flag("publish_map_to_base", config_.publish_map_to_base);
-  config_.publish_odom_tf = p.flag("publish_odom_tf", config_.publish_odom_tf);
-  config_.transform_tolerance = p.nonNegative("transform_tolerance", config_.transform_tolerance);
-  config_.transform_publish_period =
-      p.nonNegative("transform_publish_period", config_.transform_publish_period);
-  config_.diagnostics_period = p.nonNegative("diagnostics_period", config_.diagnostics_period);
-  config_.visualization_rate = p.nonNegative("visualization_rate", config_.visualization_rate);
-  config_.input_timeout = p.positive("input_timeout", config_.input_timeout);
-  config_.queue_size = p.integer("queue_size", config_.queue_size, 1, 10000000);
-  config_.map_file = p.text("map_file", config_.map_file);
-  config_.markers.default_diameter =
-      p.positive("marker_default_diameter", config_.markers.default_diameter);
-  config_.markers.height = p.positive("marker_height", config_.markers.height);
-  config_.markers.text_size = p.positive("marker_text_size", config_.markers.text_size);
-  config_.markers.show_ids = p.flag("marker_show_ids", config_.markers.show_ids);
-  config_.markers.show_ellipses = p.flag("marker_show_covariance", config_.markers.show_ellipses);
-  for (const std::string* frame : {&config_.map_frame, &config_.odom_frame, &config_.base_frame}) {
+  NodeConfig c;  // the defaults
+  c.associator = AssociatorLoader::lookupName(p.text("associator", AssociatorLoader::kDefault));
+  c.map_frame = p.text("map_frame", c.map_frame);
+  c.odom_frame = p.text("odom_frame", c.odom_frame);
+  c.base_frame = p.text("base_frame", c.base_frame);
+  c.publish_tf = p.flag("publish_tf", c.publish_tf);
+  c.publish_map_to_base = p.flag("publish_map_to_base", c.publish_map_to_base);
+  c.publish_odom_tf = p.flag("publish_odom_tf", c.publish_odom_tf);
+  c.transform_tolerance = p.nonNegative("transform_tolerance", c.transform_tolerance);
+  c.transform_publish_period =
+      p.nonNegative("transform_publish_period", c.transform_publish_period);
+  c.diagnostics_period = p.nonNegative("diagnostics_period", c.diagnostics_period);
+  c.visualization_rate = p.nonNegative("visualization_rate", c.visualization_rate);
+  c.input_timeout = p.positive("input_timeout", c.input_timeout);
+  c.queue_size = p.integer("queue_size", c.queue_size, 1, 10000000);
+  c.map_file = p.text("map_file", c.map_file);
+  c.markers.default_diameter = p.positive("marker_default_diameter", c.markers.default_diameter);
+  c.markers.height = p.positive("marker_height", c.markers.height);
+  c.markers.text_size = p.positive("marker_text_size", c.markers.text_size);
+  c.markers.show_ids = p.flag("marker_show_ids", c.markers.show_ids);
+  c.markers.show_ellipses = p.flag("marker_show_covariance", c.markers.show_ellipses);
+  for (const std::string* frame : {&c.map_frame, &c.odom_frame, &c.base_frame}) {
     if (frame->empty()) p.fail("frames", "frame names must not be empty");
   }
-  if (config_.map_frame == config_.odom_frame || config_.map_frame == config_.base_frame ||
-      config_.odom_frame == config_.base_frame) {
+  if (c.map_frame == c.odom_frame || c.map_frame == c.base_frame || c.odom_frame == c.base_frame) {
     p.fail("map_frame", "map_frame, odom_frame and base_frame must be three different frames");
   }
   // A tf frame has one parent: with both, base_frame would hang below map and below odom.
-  if (config_.publish_tf && config_.publish_map_to_base && config_.publish_odom_tf) {
+  if (c.publish_tf && c.publish_map_to_base && c.publish_odom_tf) {
     p.fail("publish_map_to_base", "publish_map_to_base and publish_odom_tf together give " +
-                                      config_.base_frame + " two parents (" + config_.map_frame +
-                                      " and " + config_.odom_frame + "): choose one");
+                                      c.base_frame + " two parents (" + c.map_frame + " and " +
+                                      c.odom_frame + "): choose one");
   }
+  return c;
+}
 
+void EkfSlamNode::readParameters() {
+  // Every name read through `source` is recorded: what nobody read is a misspelling.
+  const RosParameterSource ros_source(pnh_);
+  const RecordingParameterSource source(ros_source, ros_source.names());
+  config_ = readNodeConfig(source);
   // The pipeline's parameters (docs/parameters.md), the same names as the offline runner's YAML.
   pipeline_config_ = readPipelineConfig(source);
-
   // The associator reads its own namespace, e.g. ~DJNN/individual_probability.
-  associator_ =
-      loader_.create(config_.associator, RosParameterSource(pnh_, shortName(config_.associator)));
+  const RosParameterSource assoc_ros(pnh_, shortName(config_.associator));
+  const RecordingParameterSource assoc_source(assoc_ros, assoc_ros.names());
+  associator_ = loader_.create(config_.associator, assoc_source);
+  source.rejectUnread();
+  assoc_source.rejectUnread();
 }
 
 // --- inputs ---------------------------------------------------------------------------------

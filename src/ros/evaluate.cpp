@@ -15,7 +15,9 @@
 #include <thread>
 
 #include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/recording_parameter_source.h"
 #include "ekf_slam/ros/associator_loader.h"
+#include "ekf_slam/ros/ekf_slam_node.h"
 #include "ekf_slam/tools/output_files.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
 
@@ -197,10 +199,17 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
   std::vector<RunSetup> setups;  // world-major, then associator
   for (const std::string& name : e.worlds) {
     const sim::World w = sim::makeWorld(name);
-    const PipelineConfig config = readPipelineConfig(pipelineSource(o, w));
+    // Unknown names (misspelt in the YAML or in --set) are errors, as in the node.
+    const YamlParameterSource pipeline_yaml = pipelineSource(o, w);
+    const RecordingParameterSource pipeline_params(pipeline_yaml, pipeline_yaml.names());
+    readNodeConfig(pipeline_params);  // a node's YAML may be given: its settings are accepted
+    const PipelineConfig config = readPipelineConfig(pipeline_params);
+    pipeline_params.rejectUnread();
     for (std::size_t a = 0; a < o.associators.size(); ++a) {
       RunSetup s{w, config, associatorSource(o, w, shorts[a])};
-      loader.create(o.associators[a], s.associator_params);  // validates name and parameters
+      const RecordingParameterSource params(s.associator_params, s.associator_params.names());
+      loader.create(o.associators[a], params);  // validates name and parameters
+      params.rejectUnread();
       setups.push_back(std::move(s));
     }
   }

@@ -35,11 +35,13 @@
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/input_sequencer.h"
 #include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/recording_parameter_source.h"
 #include "ekf_slam/core/simulated_run.h"
 #include "ekf_slam/core/slam_pipeline.h"
 #include "ekf_slam/core/trajectory_metrics.h"
 #include "ekf_slam/ros/associator_loader.h"
 #include "ekf_slam/ros/conversions.h"
+#include "ekf_slam/ros/ekf_slam_node.h"
 #include "ekf_slam/tools/association_problem.h"
 #include "ekf_slam/tools/output_files.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
@@ -323,20 +325,27 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
 
   // Parameters: the pipeline's at the top level, the associator's in its own section only, as
   // the node reads ~ and ~<NAME> after rosparam loads the same file.
-  const YamlParameterSource top =
+  // Every name is recorded: one that neither the pipeline, the node nor the associator reads is a
+  // misspelling and an error, as in the node.
+  const YamlParameterSource top_yaml =
       o.params_path.empty() ? YamlParameterSource() : YamlParameterSource::fromFile(o.params_path);
+  const RecordingParameterSource top(top_yaml, top_yaml.names());
+  readNodeConfig(top);  // the node's settings: validated here too, used by the node only
   std::string name = o.associator;
   if (name.empty() && !top.get("associator", &name)) name = AssociatorLoader::kDefault;
   const std::string lookup = AssociatorLoader::lookupName(name);
   const std::string short_name = lookup.substr(lookup.rfind('/') + 1);
   const PipelineConfig config = readPipelineConfig(top);
-  const YamlParameterSource assoc_params =
+  const YamlParameterSource assoc_yaml =
       o.params_path.empty()
           ? YamlParameterSource()
           : YamlParameterSource::fromFile(o.params_path, short_name,
                                           YamlParameterSource::Scope::kSectionOnly);
+  const RecordingParameterSource assoc_params(assoc_yaml, assoc_yaml.names());
   AssociatorLoader loader;
   auto capturing = std::make_shared<CapturingAssociator>(loader.create(lookup, assoc_params));
+  top.rejectUnread();
+  assoc_params.rejectUnread();
   SlamPipeline pipeline(config, capturing);
 
   makeDirectory(o.out_dir);

@@ -76,4 +76,16 @@ bool RosParameterSource::get(const std::string& name, std::string* value) const 
   return true;
 }
 
+std::vector<std::string> RosParameterSource::names() const {
+  std::vector<std::string> all, out;
+  if (!nh_.getParamNames(all)) return out;
+  const std::string prefix = nh_.getNamespace() + "/";
+  for (const std::string& n : all) {
+    if (n.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string rest = n.substr(prefix.size());
+    if (!rest.empty() && rest.find('/') == std::string::npos) out.push_back(rest);
+  }
+  return out;
+}
+
 }  // namespace ekf_slam

@@ -51,6 +51,12 @@ std::string YamlParameterSource::qualify(const std::string& name) const {
   return origin_ + ":" + (in_section ? section_ + "/" : "") + name;
 }
 
+std::vector<std::string> YamlParameterSource::names() const {
+  std::vector<std::string> out;
+  for (const auto& kv : values_) out.push_back(kv.first);
+  return out;
+}
+
 void YamlParameterSource::set(const std::string& name, const std::string& scalar) {
   values_[name] = Entry{YAML::Node(scalar), false};
 }

@@ -63,6 +63,11 @@ struct NodeConfig {
   MarkerStyle markers;
 };
 
+/// The node's own parameters from `params` (defaults and checks as documented in docs/node.md).
+/// ROS-free, so that the offline runner validates (and accepts) the same YAML keys. Throws
+/// ParameterError naming a bad one.
+NodeConfig readNodeConfig(const ParameterSource& params);
+
 class EkfSlamNode {
  public:
   /// Reads the parameters, loads the associator and connects. Throws UnknownAssociatorError

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <ros/node_handle.h>
 
@@ -25,6 +26,8 @@ class RosParameterSource : public ParameterSource {
   bool get(const std::string& name, std::string* value) const override;
   /// e.g. "/ekf_slam/DJNN/individual_probability".
   std::string qualify(const std::string& name) const override { return nh_.resolveName(name); }
+  /// Parameters directly in the namespace (not those of sub-namespaces), relative names.
+  std::vector<std::string> names() const;
 
   const ros::NodeHandle& nodeHandle() const { return nh_; }
 

@@ -15,6 +15,7 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 #include <yaml-cpp/yaml.h>
 
@@ -46,6 +47,8 @@ class YamlParameterSource : public ParameterSource {
   bool get(const std::string& name, std::string* value) const override;
   /// "<origin>:<section>/<name>", or "<origin>:<name>" for a top-level entry.
   std::string qualify(const std::string& name) const override;
+  /// The scalar entries this source sees (top level and/or its section, by its scope).
+  std::vector<std::string> names() const;
 
   /// Sets or overrides a parameter (a YAML scalar, e.g. "0.95").
   void set(const std::string& name, const std::string& scalar);

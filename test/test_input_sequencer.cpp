@@ -1,6 +1,8 @@
 // InputSequencer: stamp ordering, ties, late items, latency release, flush, backwards jumps.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <string>
 #include <vector>
 
@@ -36,6 +38,9 @@ std::vector<std::string> drain(Seq* seq) {
         break;
       case Seq::Kind::kTimeJump:
         s = "J";
+        break;
+      case Seq::Kind::kDropped:  // never handed out by InputSequencer
+        s = "D";
         break;
     }
     if (item.late) s += "!";
@@ -127,13 +132,103 @@ TEST(InputSequencer, BackwardsJumpReleasesTheOldTimelineThenAMarker) {
   // Within the threshold: just late.
   EXPECT_EQ(seq.addOdometry(odom(99.5)), SequencerStatus::kLate);
   EXPECT_EQ(drain(&seq), V({"o99.5!"}));
-  EXPECT_EQ(seq.addOdometry(odom(0.0)), SequencerStatus::kTimeJump);
-  EXPECT_EQ(drain(&seq), V({"s:old", "J"}));
+  // Far back: held until the scans tell whether the whole input restarted; they do.
+  EXPECT_EQ(seq.addOdometry(odom(0.0)), SequencerStatus::kHeld);
+  EXPECT_TRUE(drain(&seq).empty());
+  EXPECT_EQ(seq.addScan(0.01, "new"), SequencerStatus::kTimeJump);
+  EXPECT_EQ(drain(&seq), V({"s:old", "J", "o0"}));
   EXPECT_EQ(seq.counters().time_jumps, 1u);
   // The new timeline works normally.
-  EXPECT_EQ(seq.addScan(0.01, "new"), SequencerStatus::kQueued);
   seq.addOdometry(odom(0.025));
-  EXPECT_EQ(drain(&seq), V({"o0", "s:new"}));
+  EXPECT_EQ(drain(&seq), V({"s:new"}));
+}
+
+TEST(InputSequencer, ASingleStreamJumpingBackIsARestart) {
+  Seq seq;  // odometry only: nothing else can confirm
+  seq.addOdometry(odom(100.0));
+  seq.addOdometry(odom(100.1));
+  EXPECT_EQ(seq.addOdometry(odom(0.0)), SequencerStatus::kTimeJump);
+  seq.flush();
+  EXPECT_EQ(drain(&seq), V({"o100", "o100.1", "J", "o0"}));
+}
+
+// A bad publisher must not wipe the map: one stream alone cannot restart the timeline.
+TEST(InputSequencer, OneStreamJumpingBackIsDroppedNotAReset) {
+  Seq seq;
+  for (int k = 0; k < 20; ++k) {
+    seq.addOdometry(odom(100.0 + 0.1 * k));
+    if (k % 2 == 1) seq.addScan(100.0 + 0.1 * k + 0.01, "s" + std::to_string(k));
+  }
+  drain(&seq);
+  // Odometry 10 s back, while the scans go on: held, then refuted by the next scan.
+  EXPECT_EQ(seq.addOdometry(odom(92.0)), SequencerStatus::kHeld);
+  EXPECT_EQ(seq.addOdometry(odom(92.1)), SequencerStatus::kHeld);
+  EXPECT_EQ(seq.addScan(102.05, "next"), SequencerStatus::kQueued);
+  seq.addOdometry(odom(102.1));
+  EXPECT_EQ(drain(&seq), V({"s:s19", "s:next"}));
+  EXPECT_EQ(seq.counters().time_jumps, 0u);
+  EXPECT_EQ(seq.counters().dropped_out_of_range, 2u);
+  // The same for scans: their payloads are freed, nothing of them comes out.
+  EXPECT_EQ(seq.addScan(50.0, "garbage"), SequencerStatus::kHeld);
+  seq.addOdometry(odom(102.2));
+  seq.addScan(102.25, "good");
+  seq.addOdometry(odom(102.3));
+  EXPECT_EQ(drain(&seq), V({"o102.1", "o102.2", "s:good"}));
+  EXPECT_EQ(seq.counters().dropped_out_of_range, 3u);
+  EXPECT_EQ(seq.counters().time_jumps, 0u);
+}
+
+TEST(InputSequencer, AScanFarInTheFutureDoesNotPoisonTheTimeline) {
+  Seq seq;
+  seq.addOdometry(odom(10.0));
+  seq.addScan(10.05, "a");
+  seq.addOdometry(odom(10.1));
+  EXPECT_EQ(seq.addScan(1e9, "future"), SequencerStatus::kHeld);
+  seq.addOdometry(odom(10.2));  // refutes it
+  EXPECT_EQ(seq.addScan(10.25, "b"), SequencerStatus::kQueued);
+  seq.addOdometry(odom(10.3));
+  EXPECT_EQ(drain(&seq), V({"o10", "s:a", "o10.1", "o10.2", "s:b"}));
+  EXPECT_EQ(seq.counters().time_jumps, 0u);
+  EXPECT_EQ(seq.counters().dropped_out_of_range, 1u);
+}
+
+TEST(InputSequencer, BothStreamsJumpingBackIsARestart) {
+  Seq seq;
+  for (int k = 0; k < 10; ++k) {
+    seq.addOdometry(odom(100.0 + 0.1 * k));
+    seq.addScan(100.0 + 0.1 * k + 0.05, "old" + std::to_string(k));
+  }
+  drain(&seq);
+  EXPECT_EQ(seq.addOdometry(odom(20.0)), SequencerStatus::kHeld);  // the bag starts again
+  EXPECT_EQ(seq.addScan(20.05, "new"), SequencerStatus::kTimeJump);
+  seq.addOdometry(odom(20.1));
+  const V out = drain(&seq);
+  ASSERT_FALSE(out.empty());
+  const auto j = std::find(out.begin(), out.end(), "J");
+  ASSERT_NE(j, out.end());
+  EXPECT_EQ(V(j + 1, out.end()), V({"o20", "s:new"}));
+  EXPECT_EQ(seq.counters().time_jumps, 1u);
+  EXPECT_EQ(seq.counters().dropped_out_of_range, 0u);
+}
+
+TEST(InputSequencer, ScansDuringAnOdometryOutageAreKept) {
+  // Odometry stops for 3 s (threshold 1 s) while scans go on, then resumes: every scan is used,
+  // in stamp order, and nothing is a time jump.
+  Seq seq;
+  seq.addOdometry(odom(0.0));
+  seq.addScan(0.05, "a");
+  seq.addOdometry(odom(0.1));
+  for (int k = 0; k < 15; ++k) seq.addScan(0.3 + 0.2 * k, "g" + std::to_string(k));
+  seq.addOdometry(odom(3.2));
+  seq.addScan(3.25, "b");
+  seq.addOdometry(odom(3.3));
+  const V out = drain(&seq);
+  int scans = 0;
+  for (const std::string& s : out) scans += s.rfind("s:", 0) == 0;
+  EXPECT_EQ(scans, 17) << ::testing::PrintToString(out);
+  EXPECT_EQ(seq.counters().time_jumps, 0u);
+  EXPECT_EQ(seq.counters().dropped_out_of_range, 0u);
+  EXPECT_EQ(out.back(), "s:b");
 }
 
 TEST(InputSequencer, NonFiniteStampsAreRejected) {

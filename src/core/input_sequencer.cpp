@@ -29,6 +29,8 @@ const char* toString(SequencerStatus s) {
       return "time jump";
     case SequencerStatus::kInvalidStamp:
       return "invalid stamp";
+    case SequencerStatus::kHeld:
+      return "held";
   }
   return "?";
 }
@@ -61,20 +63,93 @@ SequencerStatus SequencerCore::add(Entry e) {
   const bool odom = e.kind == Kind::kOdometry;
   ++(odom ? counters_.odometry : counters_.scans);
   e.order = order_++;
+  const double thr = config_.time_jump_threshold;
+  const double other = odom ? newest_scan_ : newest_odometry_;
 
+  bool jumped = false;
+  if (!candidates_.empty()) {
+    if (e.kind != candidates_.front().kind) {
+      jumped = decideCandidates(e);
+    } else if (std::isfinite(other) && std::abs(e.stamp - other) <= thr) {
+      dropCandidates();  // the stream is back on the common timeline: they were outliers
+    }
+  }
+  const double other_now = odom ? newest_scan_ : newest_odometry_;
+  if (std::isfinite(other_now) && std::abs(e.stamp - other_now) > thr) {
+    // Disagrees with the other stream: one stream alone does not move the timeline.
+    if (!candidates_.empty() && std::abs(e.stamp - candidates_.back().stamp) > thr) {
+      dropCandidates();  // not even consistent with the previous candidates
+    }
+    candidates_.push_back(e);
+    ++counters_.held;
+    if (candidates_.back().stamp - candidates_.front().stamp > thr ||
+        candidates_.front().stamp - candidates_.back().stamp > thr) {
+      // The other stream stayed silent over a whole threshold of this one: not a bad publisher
+      // but the other stream stopped (or paused) while this one went on.
+      const bool jump = candidates_.front().stamp < newest_ - thr;
+      confirmCandidates();
+      return jump ? SequencerStatus::kTimeJump : SequencerStatus::kQueued;
+    }
+    return SequencerStatus::kHeld;
+  }
+  const SequencerStatus status = accept(e);
+  return jumped && status != SequencerStatus::kLate ? SequencerStatus::kTimeJump : status;
+}
+
+bool SequencerCore::decideCandidates(const Entry& e) {
+  if (std::abs(e.stamp - candidates_.back().stamp) > config_.time_jump_threshold) {
+    dropCandidates();  // the other stream is still on the old timeline
+    return false;
+  }
+  // Both streams agree on the candidates' timeline.
+  const bool jump = candidates_.front().stamp < newest_ - config_.time_jump_threshold;
+  confirmCandidates();
+  return jump;
+}
+
+void SequencerCore::confirmCandidates() {
+  std::deque<Entry> held;
+  held.swap(candidates_);
+  if (held.front().stamp < newest_ - config_.time_jump_threshold) {
+    timeJump(held.front().stamp, held.front().order);
+  }
+  for (const Entry& c : held) accept(c);
+}
+
+void SequencerCore::dropCandidates() {
+  for (const Entry& c : candidates_) {
+    ++counters_.dropped_out_of_range;
+    if (c.kind != Kind::kScan) continue;
+    Entry d = c;  // the payload of a scan is freed by InputSequencer
+    d.kind = Kind::kDropped;
+    ready_.push_back(d);
+  }
+  candidates_.clear();
+}
+
+void SequencerCore::timeJump(double stamp, std::uint64_t order) {
+  // A new timeline: what is pending belongs to the old one and is released first, so nothing
+  // is dropped; the marker tells the shell to reset before the new items.
+  for (const Entry& p : pending_) moveToReady(p);
+  pending_.clear();
+  Entry marker;
+  marker.kind = Kind::kTimeJump;
+  marker.stamp = stamp;
+  marker.order = order;
+  ready_.push_back(marker);
+  newest_ = newest_odometry_ = newest_scan_ = last_released_ =
+      std::numeric_limits<double>::quiet_NaN();
+  ++counters_.time_jumps;
+}
+
+SequencerStatus SequencerCore::accept(Entry e) {
+  const bool odom = e.kind == Kind::kOdometry;
+  const double other = odom ? newest_scan_ : newest_odometry_;
   SequencerStatus status = SequencerStatus::kQueued;
-  if (std::isfinite(newest_) && e.stamp < newest_ - config_.time_jump_threshold) {
-    // A new timeline: what is pending belongs to the old one and is released first, so nothing
-    // is dropped; the marker tells the shell to reset before the new item.
-    flush();
-    Entry marker;
-    marker.kind = Kind::kTimeJump;
-    marker.stamp = e.stamp;
-    marker.order = e.order;
-    ready_.push_back(marker);
-    newest_ = newest_odometry_ = newest_scan_ = last_released_ =
-        std::numeric_limits<double>::quiet_NaN();
-    ++counters_.time_jumps;
+  if (!std::isfinite(other) && std::isfinite(newest_) &&
+      e.stamp < newest_ - config_.time_jump_threshold) {
+    // A single stream (the other never seen) jumped back: a restart.
+    timeJump(e.stamp, e.order);
     status = SequencerStatus::kTimeJump;
   } else if (std::isfinite(last_released_) && e.stamp < last_released_) {
     // Its place in the sequence has gone: hand it over now, flagged, and let the pipeline apply
@@ -126,6 +201,15 @@ void SequencerCore::moveToReady(const Entry& e) {
 }
 
 void SequencerCore::flush() {
+  // End of input: nothing can decide any more. Candidates later than the old timeline (a stream
+  // that went on after the other ended) are used; earlier ones (a lone jump back) are not.
+  if (!candidates_.empty()) {
+    if (candidates_.front().stamp >= newest_ - config_.time_jump_threshold) {
+      confirmCandidates();
+    } else {
+      dropCandidates();
+    }
+  }
   for (const Entry& e : pending_) moveToReady(e);
   pending_.clear();
 }
@@ -140,6 +224,7 @@ bool SequencerCore::next(Entry* out) {
 void SequencerCore::clear() {
   pending_.clear();
   ready_.clear();
+  candidates_.clear();
   newest_ = newest_odometry_ = newest_scan_ = last_released_ =
       std::numeric_limits<double>::quiet_NaN();
 }

@@ -413,6 +413,15 @@ void EkfSlamNode::warnStatus(SequencerStatus status, double stamp, const char* w
       ROS_WARN("ekf_slam: time jumped backwards (%s stamp %.3f): resetting (bag restarted?)", what,
                stamp);
       break;
+    case SequencerStatus::kHeld:
+      // One stream disagrees with the other by more than time_jump_threshold: held until the
+      // other confirms a restart (or a gap) or refutes it (then dropped and counted).
+      ROS_WARN_THROTTLE(5.0,
+                        "ekf_slam: %s stamped %.3f disagrees with the other input by more than "
+                        "time_jump_threshold: held (%lu held, %lu dropped so far)",
+                        what, stamp, static_cast<unsigned long>(c.held),
+                        static_cast<unsigned long>(c.dropped_out_of_range));
+      break;
     case SequencerStatus::kInvalidStamp:
       ROS_WARN_THROTTLE(5.0, "ekf_slam: %s with a non-finite stamp dropped (%lu so far)", what,
                         static_cast<unsigned long>(c.invalid_stamps));
@@ -434,7 +443,9 @@ void EkfSlamNode::drain() {
         process(item.scan, item.stamp);
         break;
       case SequencerCore::Kind::kTimeJump:
-        resetAll("time jumped backwards");
+        resetAll("time jumped backwards in every input stream");
+        break;
+      case SequencerCore::Kind::kDropped:  // handled inside InputSequencer
         break;
     }
   }
@@ -660,7 +671,8 @@ void EkfSlamNode::onDiagnosticsTimer(const ros::WallTimerEvent&) {
   in.hardware_id = hw;
   const std::uint64_t lost =
       overflow + odom_gaps_.missing + scan_gaps_.missing + observation_gaps_.missing;
-  const std::uint64_t skipped = skipped_no_tf_ + skipped_bad_stamp_ + q.invalid_stamps;
+  const std::uint64_t skipped =
+      skipped_no_tf_ + skipped_bad_stamp_ + q.invalid_stamps + q.dropped_out_of_range;
   in.level = diagnostic_msgs::DiagnosticStatus::OK;
   in.message = "no input lost";
   if (lost > 0 || skipped > 0) {
@@ -678,6 +690,7 @@ void EkfSlamNode::onDiagnosticsTimer(const ros::WallTimerEvent&) {
                keyValue("skipped without tf", skipped_no_tf_),
                keyValue("skipped zero stamps", skipped_bad_stamp_),
                keyValue("dropped non-finite stamps", q.invalid_stamps),
+               keyValue("out-of-range stamps dropped (one stream jumped)", q.dropped_out_of_range),
                keyValue("late odometry (skipped)", c.late_odometry),
                keyValue("late scans (used at filter time)", c.late_scans),
                keyValue("odometry frame mismatches", odom_frame_mismatches_)};
@@ -806,10 +819,10 @@ std::string EkfSlamNode::summary() const {
       << "; odometry received " << odometry_received_ << ", missing (seq gaps) "
       << odom_gaps_.missing << ", used " << c.odometry << "; inbox overflow " << overflow
       << "; late odometry " << s.late_odometry << ", late scans " << s.late_scans << ", time jumps "
-      << s.time_jumps << ", released by latency " << s.released_by_latency
-      << ", input-timeout flushes " << flushes_ << "; empty scans " << c.empty_scans
-      << ", rejected updates " << c.rejected_updates << "; landmarks "
-      << pipeline_->ekf().numLandmarks();
+      << s.time_jumps << ", out-of-range stamps dropped " << s.dropped_out_of_range
+      << ", released by latency " << s.released_by_latency << ", input-timeout flushes " << flushes_
+      << "; empty scans " << c.empty_scans << ", rejected updates " << c.rejected_updates
+      << "; landmarks " << pipeline_->ekf().numLandmarks();
   return out.str();
 }
 

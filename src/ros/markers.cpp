@@ -143,6 +143,22 @@ const visualization_msgs::MarkerArray& LandmarkMarkers::build(const SlamPipeline
     }
   }
 
+  // The vehicle: an arrow at the current pose, part of this latched array so that a late rviz
+  // shows where the robot is, not only the map (~pose is a per-scan stream).
+  const Eigen::Vector3d pose = pipeline.pose();
+  if (pose.allFinite()) {
+    Marker& m = add();
+    header(&m, kVehicle, 0, Marker::ARROW, Marker::ADD);
+    m.pose.position.x = pose.x();
+    m.pose.position.y = pose.y();
+    m.pose.position.z = 0.5;
+    m.pose.orientation.z = std::sin(0.5 * pose.z());
+    m.pose.orientation.w = std::cos(0.5 * pose.z());
+    m.scale.x = 2.5 * style_.text_size;  // length: readable at the zoom the labels are
+    m.scale.y = m.scale.z = 0.8 * style_.text_size;
+    setColor(&m, 0.9f, 0.1f, 0.9f, 1.0f);
+  }
+
   array_.markers.resize(used_);
   return array_;
 }

@@ -445,6 +445,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
         case InputSequencer<InputRef>::Kind::kOdometry:
           pipeline.addOdometry(item.odometry);
           break;
+        case InputSequencer<InputRef>::Kind::kDropped:  // handled inside InputSequencer
+          break;
         case InputSequencer<InputRef>::Kind::kTimeJump:
           ++time_jumps;
           log << "warning: time jumped backwards to " << std::fixed << item.stamp
@@ -611,6 +613,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                    {"sequencer_late_scans", sequencer.counters().late_scans},
                    {"released_by_latency", sequencer.counters().released_by_latency},
                    {"invalid_stamps", invalid_stamps},
+                   {"held_stamps", sequencer.counters().held},
+                   {"dropped_out_of_range", sequencer.counters().dropped_out_of_range},
                    {"time_jumps", time_jumps}};
   if (score) {
     const RunMetrics m = scorer->metrics(&pipeline);
@@ -643,14 +647,19 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
 
   // Nothing is dropped silently: every input that needed handling is reported.
   const std::uint64_t late = k.late_odometry + k.late_scans;
+  const std::uint64_t out_of_range = sequencer.counters().dropped_out_of_range;
   if (k.rejected_odometry || k.rejected_updates || late || k.odometry_gaps || invalid_stamps ||
-      k.invalid_observations || k.invalid_associations || k.failed_initialisations) {
+      k.invalid_observations || k.invalid_associations || k.failed_initialisations ||
+      out_of_range || k.invalid_ranges || k.empty_scans || time_jumps) {
     log << "warning: " << k.rejected_odometry << " odometry messages rejected (non-finite), "
-        << invalid_stamps << " messages with invalid stamps dropped, " << k.late_odometry
-        << " late odometry messages skipped, " << k.late_scans << " late scans, " << k.odometry_gaps
-        << " odometry gaps, " << k.rejected_updates << " EKF updates refused, "
-        << k.invalid_observations << " invalid observations, " << k.invalid_associations
-        << " associator results fixed, " << k.failed_initialisations
+        << invalid_stamps << " messages with invalid stamps dropped, " << out_of_range
+        << " messages dropped (stamp out of range of the other input), " << time_jumps
+        << " time jumps (resets), " << k.empty_scans << " empty scans, " << k.invalid_ranges
+        << " invalid ranges, " << k.late_odometry << " late odometry messages skipped, "
+        << k.late_scans << " late scans, " << k.odometry_gaps << " odometry gaps, "
+        << k.rejected_updates << " EKF updates refused, " << k.invalid_observations
+        << " invalid observations, " << k.invalid_associations << " associator results fixed, "
+        << k.failed_initialisations
         << " failed landmark initialisations (metrics.json: counters)\n";
   }
 

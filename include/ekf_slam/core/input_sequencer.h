@@ -13,10 +13,21 @@
 //  - an item older than the last released stamp is LATE: it is released at once, flagged `late`,
 //    and the pipeline applies the shared decision (late odometry: skipped and counted, its
 //    interval is already predicted; late scan: processed at the filter's current time, counted);
-//  - an item older than the newest stamp seen by more than time_jump_threshold means time jumped
-//    backwards (bag restarted, clock reset): everything pending is released first (in order),
-//    then a kTimeJump marker, then the new item starts a new timeline. On the marker the shells
-//    reset the pipeline (SlamPipeline::reset) with a warning.
+//  - one stream alone cannot restart the timeline (a bad publisher must not wipe the map): while
+//    both streams are alive, an item whose stamp is more than time_jump_threshold away from the
+//    other stream's newest stamp is HELD as a candidate of a new timeline. The other stream
+//    decides: an item of it that agrees with the candidates (within the threshold) confirms them,
+//    one that agrees with the old timeline refutes them, and they are dropped and counted
+//    (dropped_out_of_range). Confirmed candidates earlier than the old timeline mean that time
+//    jumped backwards (bag restarted, clock reset): everything pending is released first (in
+//    order), then a kTimeJump marker, then the candidates start the new timeline; on the marker
+//    the shells reset the pipeline with a warning. Confirmed candidates later than it are a gap
+//    in the other stream: they are queued as usual.
+//  - the other stream is silent when the candidates alone span more than time_jump_threshold:
+//    they are confirmed. Candidates that disagree with each other restart the candidate set (the
+//    older ones are dropped). With a single stream (the other never seen), its own jump back by
+//    more than time_jump_threshold is a restart. At flush(), candidates later than the old
+//    timeline are queued, earlier ones dropped.
 //
 // Usage (both shells):
 //   InputSequencer<Scan> seq(config.sequencer);
@@ -62,6 +73,7 @@ enum class SequencerStatus : std::uint8_t {
   kLate,          ///< older than the last released stamp: released at once, flagged late
   kTimeJump,      ///< time jumped backwards: a kTimeJump marker precedes it in the output
   kInvalidStamp,  ///< non-finite stamp: dropped (the shell warns)
+  kHeld,          ///< inconsistent with the other stream: held until that stream decides
 };
 const char* toString(SequencerStatus s);
 
@@ -73,15 +85,18 @@ struct SequencerCounters {
   std::uint64_t late_scans = 0;
   std::uint64_t time_jumps = 0;
   std::uint64_t invalid_stamps = 0;
-  std::uint64_t released_by_latency = 0;  ///< items released by max_latency, not by the other
-                                          ///< stream
+  std::uint64_t released_by_latency = 0;   ///< items released by max_latency, not by the other
+                                           ///< stream
+  std::uint64_t held = 0;                  ///< items held as candidates of a new timeline
+  std::uint64_t dropped_out_of_range = 0;  ///< candidates refuted by the other stream: dropped
 };
 
 /// The payload-free ordering logic. Scans are referred to by a handle; InputSequencer<Scan>
 /// below stores the payloads.
 class SequencerCore {
  public:
-  enum class Kind : std::uint8_t { kOdometry, kScan, kTimeJump };
+  /// kDropped: a refuted candidate (scans carry their handle, so the payload can be freed).
+  enum class Kind : std::uint8_t { kOdometry, kScan, kTimeJump, kDropped };
   struct Entry {
     Kind kind = Kind::kOdometry;
     double stamp = 0.0;
@@ -102,7 +117,7 @@ class SequencerCore {
   /// Drops everything (pending and released) and forgets the timeline; counters are kept.
   void clear();
 
-  std::size_t pending() const { return pending_.size(); }
+  std::size_t pending() const { return pending_.size() + candidates_.size(); }
   std::size_t ready() const { return ready_.size(); }
   /// Stamp of the last released item (NaN before the first).
   double lastReleasedStamp() const { return last_released_; }
@@ -111,6 +126,14 @@ class SequencerCore {
 
  private:
   SequencerStatus add(Entry e);
+  /// The in-order part of add(): late items, the single-stream jump test, queueing.
+  SequencerStatus accept(Entry e);
+  /// The other stream's item `e` confirms or refutes the held candidates; true when confirming
+  /// them was a jump back in time.
+  bool decideCandidates(const Entry& e);
+  void confirmCandidates();
+  void dropCandidates();
+  void timeJump(double stamp, std::uint64_t order);
   void insertPending(const Entry& e);
   void release();
   void moveToReady(const Entry& e);
@@ -118,6 +141,7 @@ class SequencerCore {
   InputSequencerConfig config_;
   std::deque<Entry> pending_;  // sorted by (stamp, kind, order)
   std::deque<Entry> ready_;
+  std::deque<Entry> candidates_;  // held items of one stream, in arrival order
   double newest_ = std::numeric_limits<double>::quiet_NaN();
   double newest_odometry_ = std::numeric_limits<double>::quiet_NaN();
   double newest_scan_ = std::numeric_limits<double>::quiet_NaN();
@@ -154,6 +178,10 @@ class InputSequencer {
   bool next(Item* out) {
     SequencerCore::Entry e;
     if (!core_.next(&e)) return false;
+    while (e.kind == Kind::kDropped) {  // a refuted candidate: free its payload, skip it
+      scans_.erase(e.handle);
+      if (!core_.next(&e)) return false;
+    }
     out->kind = e.kind;
     out->stamp = e.stamp;
     out->late = e.late;

@@ -41,6 +41,7 @@ class LandmarkMarkers {
   static constexpr const char* kEllipses = "covariance_95";
   static constexpr const char* kIds = "ids";
   static constexpr const char* kTentative = "tentative";
+  static constexpr const char* kVehicle = "vehicle";
 
  private:
   visualization_msgs::Marker& add();

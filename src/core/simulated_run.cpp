@@ -66,6 +66,27 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
 
 }  // namespace sim
 
+// --- KnownAssociation ----------------------------------------------------------------------------
+
+AssociationResult KnownAssociation::associate(const AssociationContext& context) {
+  AssociationResult r;
+  r.resize(context.numObservations());
+  for (std::size_t i = 0; i < context.numObservations() && i < truth_.size(); ++i) {
+    if (!sim::isStaticLandmark(truth_[i])) continue;  // movers and clutter: rejected
+    const auto it = landmark_of_.find(truth_[i]);
+    if (it != landmark_of_.end() && context.ekf().contains(it->second)) {
+      r.pair(i, it->second);
+    } else {
+      r.decision[i] = Decision::kNew;
+    }
+  }
+  return r;
+}
+
+void KnownAssociation::landmarkAdded(int obs, LandmarkId id) {
+  if (obs >= 0 && static_cast<std::size_t>(obs) < truth_.size()) landmark_of_[truth_[obs]] = id;
+}
+
 // --- RunScorer -----------------------------------------------------------------------------------
 
 void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>& truth,
@@ -134,6 +155,7 @@ RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const Pipe
                          std::vector<Eigen::Vector2d>* errors_per_scan) {
   const auto t0 = std::chrono::steady_clock::now();
   associator->reset();
+  auto* known = dynamic_cast<KnownAssociation*>(associator.get());
   SlamPipeline pipeline(config, std::move(associator));
   pipeline.setSensorOffset(world.sensor.offset);
   sim::Simulation simulation(world, seed);
@@ -153,6 +175,7 @@ RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const Pipe
     }
     const sim::ObservationSet& set = simulation.observations();
     const std::vector<LandmarkId> all = set.truthIds();
+    if (known != nullptr) known->setTruth(all);  // the pipeline keeps every valid observation
     const ScanReport report =
         pipeline.processObservations(set.stamp + sim::kStampOffset, set.toObservations());
     truth.clear();

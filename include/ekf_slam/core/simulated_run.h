@@ -73,6 +73,25 @@ struct RunMetrics {
   Eigen::Vector2d correction_sigma = Eigen::Vector2d::Zero();
 };
 
+/// The true associations, for simulated runs (evaluation side, not an estimator): pairs each
+/// observation with the map landmark created from the same truth id, initialises unseen static
+/// landmarks, rejects movers and clutter. runSimulation hands it the truth ids of every set
+/// before the pipeline associates it. What isolates the filter from the association (e.g. the
+/// consistency of AEKF against EKF, docs/results.md); `evaluate --associators truth`.
+class KnownAssociation : public DataAssociation {
+ public:
+  void configure(const ParameterSource&) override {}
+  std::string name() const override { return "truth"; }
+  void setTruth(std::vector<LandmarkId> truth) { truth_ = std::move(truth); }
+  AssociationResult associate(const AssociationContext& context) override;
+  void landmarkAdded(int obs, LandmarkId id) override;
+  void reset() override { landmark_of_.clear(); }
+
+ private:
+  std::vector<LandmarkId> truth_;                 // of the observations being associated
+  std::map<LandmarkId, LandmarkId> landmark_of_;  // truth id -> map landmark id
+};
+
 /// Scores a run scan by scan: the association against the observations' truth ids, the pose
 /// against the true pose at the scan.
 class RunScorer {

@@ -571,11 +571,12 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     // The fixes also in the map frame (inverse alignment), so the picture overlays them.
     const Eigen::Matrix2d Rt = gps_error.alignment.rotation().transpose();
     std::ofstream g = openOutput(o.out_dir + "/gps.csv");
-    g << "stamp,x,y,x_map,y_map\n";
-    for (const auto& f : bag.gps) {
+    g << "stamp,x,y,x_map,y_map,faulty\n";
+    for (std::size_t i = 0; i < gps.size(); ++i) {
+      const StampedPoint& f = gps[i];
       const Eigen::Vector2d m = Rt * (f.position - gps_error.alignment.translation);
       g << f.stamp << ',' << f.position.x() << ',' << f.position.y() << ',' << m.x() << ',' << m.y()
-        << '\n';
+        << ',' << (gps_faulty[i] ? 1 : 0) << '\n';
     }
   }
 

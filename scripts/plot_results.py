@@ -33,6 +33,18 @@ def quantile(values, q):
     return v[min(len(v) - 1, int(q * (len(v) - 1) + 0.5))]
 
 
+def finish(plt, fig, axes, images, name, legend_size=9):
+    """Grid and legend on every axis, then the PNG images/name.png; returns its path."""
+    for ax in axes:
+        ax.grid(True, linewidth=0.3, alpha=0.5)
+        ax.legend(fontsize=legend_size)
+    fig.tight_layout()
+    png = os.path.join(images, f"{name}.png")
+    fig.savefig(png, dpi=100)
+    plt.close(fig)
+    return png
+
+
 def plot_sweep(plt, out_dir, name, prefix, xlabel, title, images):
     path = os.path.join(out_dir, name, "results.csv")
     if not os.path.exists(path):
@@ -55,13 +67,7 @@ def plot_sweep(plt, out_dir, name, prefix, xlabel, title, images):
     ax.set_xlabel(xlabel)
     ax.set_ylabel("association accuracy (mean, 10-90 % band)")
     ax.set_ylim(0.0, 1.02)
-    ax.grid(True, linewidth=0.3, alpha=0.5)
-    ax.legend(fontsize=9)
-    fig.tight_layout()
-    png = os.path.join(images, f"{name}.png")
-    fig.savefig(png, dpi=100)
-    plt.close(fig)
-    return png
+    return finish(plt, fig, [ax], images, name)
 
 
 def plot_nees(plt, out_dir, images):
@@ -85,13 +91,7 @@ def plot_nees(plt, out_dir, images):
     ax.set_title("seed 001 paper 5 world: average NEES of the pose", fontsize=10)
     ax.set_xlabel("observation set (0.2 s)")
     ax.set_ylabel("ANEES (log)")
-    ax.grid(True, linewidth=0.3, alpha=0.5)
-    ax.legend(fontsize=9)
-    fig.tight_layout()
-    png = os.path.join(images, "aekf_nees.png")
-    fig.savefig(png, dpi=100)
-    plt.close(fig)
-    return png
+    return finish(plt, fig, [ax], images, "aekf_nees")
 
 
 def plot_aekf(plt, out_dir, images, period=0.2):
@@ -127,14 +127,7 @@ def plot_aekf(plt, out_dir, images, period=0.2):
     axes[2].set_xlabel("time [s]")
     axes[0].set_title(f"seed 001 paper 5 world: EKF vs AEKF ({band[0][6]} Monte Carlo runs)",
                       fontsize=10)
-    for ax in axes:
-        ax.grid(True, linewidth=0.3, alpha=0.5)
-        ax.legend(fontsize=7)
-    fig.tight_layout()
-    png = os.path.join(images, "aekf_vs_ekf.png")
-    fig.savefig(png, dpi=100)
-    plt.close(fig)
-    return png
+    return finish(plt, fig, axes, images, "aekf_vs_ekf", legend_size=7)
 
 
 def main():

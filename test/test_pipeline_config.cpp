@@ -102,15 +102,14 @@ TEST(PipelineConfig, OdometryCorrectionParameters) {
   EXPECT_DOUBLE_EQ(d.correction.wheel_factor_initial, 1.0);
   EXPECT_DOUBLE_EQ(d.correction.wheel_factor_sigma * d.correction.wheel_factor_sigma, 0.1);
 
-  MapParameterSource p;
-  p.set("odometry_correction", "wheel_factors");
-  p.set("correction_track_width", "1.6");
-  p.set("correction_wheel_factor_initial", "1.1");
-  p.set("correction_wheel_factor_sigma", "0.2");
-  p.set("correction_wheel_factor_noise", "0.001");
-  p.set("correction_speed_scale_noise", "0.002");
-  p.set("correction_yaw_bias_sigma", "0.03");
-  p.set("correction_factor_max", "1.5");
+  const MapParameterSource p({{"odometry_correction", "wheel_factors"},
+                              {"correction_track_width", "1.6"},
+                              {"correction_wheel_factor_initial", "1.1"},
+                              {"correction_wheel_factor_sigma", "0.2"},
+                              {"correction_wheel_factor_noise", "0.001"},
+                              {"correction_speed_scale_noise", "0.002"},
+                              {"correction_yaw_bias_sigma", "0.03"},
+                              {"correction_factor_max", "1.5"}});
   const PipelineConfig c = readPipelineConfig(p);
   EXPECT_EQ(c.correction.mode, "wheel_factors");
   EXPECT_DOUBLE_EQ(c.correction.track_width, 1.6);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -271,6 +272,43 @@ TEST(OdometryCorrection, SpeedScaleConvergesOnAStraightRun) {
   const RunMetrics plain = runSimulation(w, 3, config, nn);
   EXPECT_TRUE(plain.correction_names.empty());
   EXPECT_LT(aekf.pose_rmse_m, plain.pose_rmse_m);
+}
+
+// Loading a map keeps the correction estimates (and their variances); reset() returns to the
+// prior.
+TEST(OdometryCorrection, LoadMapKeepsTheEstimatesAndResetRestoresThePrior) {
+  const sim::World w = straightWorld();
+  PipelineConfig config = sim::pipelineConfigFor(w);
+  config.correction.mode = "speed_scale";
+  const auto nn = std::make_shared<NN>();
+  nn->configure(MapParameterSource());
+  SlamPipeline p(config, nn);
+  sim::Simulation s(w, 3);
+  int sets = 0;
+  for (auto e = s.next(); e != sim::Simulation::Event::kEnd && sets < 200; e = s.next()) {
+    if (e == sim::Simulation::Event::kOdometry) {
+      OdometryInput in;
+      in.stamp = s.odometry().stamp;
+      in.twist = s.odometry().twist;
+      p.addOdometry(in);
+    } else {
+      p.processObservations(s.observations().stamp, s.observations().toObservations());
+      ++sets;
+    }
+  }
+  const Eigen::Vector2d c = p.ekf().correction();
+  const Eigen::Matrix2d C = p.ekf().correctionCovariance();
+  ASSERT_GT(std::abs(c(0) - 1.0), 0.02);  // it moved towards 1.1
+  const std::string path = testing::TempDir() + "/aekf_map.txt";
+  p.saveMap(path);
+  p.loadMap(path, /*reset_pose=*/false);
+  EXPECT_EQ(p.ekf().correction(), c);
+  EXPECT_DOUBLE_EQ(p.ekf().correctionCovariance()(0, 0), C(0, 0));
+  EXPECT_GT(p.ekf().numLandmarks(), 5u);
+  p.reset();
+  EXPECT_EQ(p.ekf().correction()(0), 1.0);
+  EXPECT_DOUBLE_EQ(p.ekf().correctionCovariance()(0, 0), 0.01);
+  std::remove(path.c_str());
 }
 
 // An update that would push the speed scale below its bound is clamped (counted): the

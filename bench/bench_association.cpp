@@ -91,7 +91,7 @@ std::unique_ptr<Problem> makeProblem(int num_landmarks, int num_obs, double free
   std::vector<int> correlated;
   std::vector<Matrix23d> A(num_landmarks, Matrix23d::Zero());
   for (int j = 0; j < num_landmarks; ++j) {
-    const int r = EkfSlam::stateRow(j);
+    const int r = pb->ekf.stateRow(j);
     Eigen::Vector2d err = sampleNormal2(rng, Eigen::Vector2d::Constant(kLandmarkSigma));
     if ((truth[j] - true_pose.head<2>()).norm() < kCorrelatedRadius) {
       // d m / d pose of a landmark fixed relative to the vehicle.
@@ -104,11 +104,11 @@ std::unique_ptr<Problem> makeProblem(int num_landmarks, int num_obs, double free
     P.block<2, 2>(r, r).diagonal().setConstant(kLandmarkSigma * kLandmarkSigma);
   }
   for (int a : correlated) {
-    const int ra = EkfSlam::stateRow(a);
+    const int ra = pb->ekf.stateRow(a);
     const Eigen::Matrix<double, 2, 3> APc = A[a] * Pc;
     P.block<2, 3>(ra, 0) = APc;
     P.block<3, 2>(0, ra) = APc.transpose();
-    for (int b : correlated) P.block<2, 2>(ra, EkfSlam::stateRow(b)) += APc * A[b].transpose();
+    for (int b : correlated) P.block<2, 2>(ra, pb->ekf.stateRow(b)) += APc * A[b].transpose();
   }
   std::vector<LandmarkId> ids(num_landmarks);
   for (int j = 0; j < num_landmarks; ++j) ids[j] = j;

@@ -4,9 +4,11 @@
     /usr/bin/python3 scripts/plot_results.py OUT [--images DIR]
 
 OUT holds rrw_noise/, rrw_kidnap/, rrw_occlusion/ (accuracy against K, mean with the 10-90 %
-spread of the runs; seed 004's three experiments) and aekf/ (Monte Carlo average NEES of the pose
-per scan with its 95 % band; seed 001 paper 5). Folders that are missing are skipped. PNGs go to
-OUT (or --images DIR). Exit status 3 when matplotlib is missing.
+spread of the runs; seed 004's three experiments), aekf/ (Monte Carlo average NEES of the pose
+per scan with its 95 % band; seed 001 paper 5) and aekf_ekf/ + aekf_aekf/ (the paper's figures 3
+and 4: pose RMSE and average NEES over time, plain EKF against AEKF on the same seeds). Folders
+that are missing are skipped. PNGs go to OUT (or --images DIR). Exit status 3 when matplotlib is
+missing.
 """
 import argparse
 import csv
@@ -31,6 +33,18 @@ def quantile(values, q):
     return v[min(len(v) - 1, int(q * (len(v) - 1) + 0.5))]
 
 
+def finish(plt, fig, axes, images, name, legend_size=9):
+    """Grid and legend on every axis, then the PNG images/name.png; returns its path."""
+    for ax in axes:
+        ax.grid(True, linewidth=0.3, alpha=0.5)
+        ax.legend(fontsize=legend_size)
+    fig.tight_layout()
+    png = os.path.join(images, f"{name}.png")
+    fig.savefig(png, dpi=100)
+    plt.close(fig)
+    return png
+
+
 def plot_sweep(plt, out_dir, name, prefix, xlabel, title, images):
     path = os.path.join(out_dir, name, "results.csv")
     if not os.path.exists(path):
@@ -53,13 +67,7 @@ def plot_sweep(plt, out_dir, name, prefix, xlabel, title, images):
     ax.set_xlabel(xlabel)
     ax.set_ylabel("association accuracy (mean, 10-90 % band)")
     ax.set_ylim(0.0, 1.02)
-    ax.grid(True, linewidth=0.3, alpha=0.5)
-    ax.legend(fontsize=9)
-    fig.tight_layout()
-    png = os.path.join(images, f"{name}.png")
-    fig.savefig(png, dpi=100)
-    plt.close(fig)
-    return png
+    return finish(plt, fig, [ax], images, name)
 
 
 def plot_nees(plt, out_dir, images):
@@ -83,13 +91,43 @@ def plot_nees(plt, out_dir, images):
     ax.set_title("seed 001 paper 5 world: average NEES of the pose", fontsize=10)
     ax.set_xlabel("observation set (0.2 s)")
     ax.set_ylabel("ANEES (log)")
-    ax.grid(True, linewidth=0.3, alpha=0.5)
-    ax.legend(fontsize=9)
-    fig.tight_layout()
-    png = os.path.join(images, "aekf_nees.png")
-    fig.savefig(png, dpi=100)
-    plt.close(fig)
-    return png
+    return finish(plt, fig, [ax], images, "aekf_nees")
+
+
+def plot_aekf(plt, out_dir, images, period=0.2):
+    """Plain EKF vs AEKF: position RMSE, heading RMSE and ANEES (with its band) over time."""
+    runs = {}  # "EKF, NN" -> rows sorted by time
+    for label, folder in (("EKF", "aekf_ekf"), ("AEKF", "aekf_aekf")):
+        path = os.path.join(out_dir, folder, "nees.csv")
+        if not os.path.exists(path):
+            continue
+        for r in read_rows(path):
+            runs.setdefault(f"{label}, {r['associator']}", []).append(
+                (int(r["scan"]) * period, float(r["anees"]), float(r["band_lower"]),
+                 float(r["band_upper"]), float(r["position_rmse_m"]),
+                 float(r["heading_rmse_rad"]), int(r["runs"])))
+    if not runs:
+        return None
+    fig, axes = plt.subplots(3, 1, figsize=(6.4, 8.4), sharex=True)
+    for label, rows in sorted(runs.items()):
+        rows.sort()
+        t = [r[0] for r in rows]
+        style = "-" if label.startswith("AEKF") else "--"
+        axes[0].semilogy(t, [r[4] for r in rows], style, linewidth=0.8, label=label)
+        axes[1].semilogy(t, [r[5] for r in rows], style, linewidth=0.8, label=label)
+        axes[2].semilogy(t, [r[1] for r in rows], style, linewidth=0.8, label=label)
+    band = sorted(next(iter(runs.values())))
+    axes[2].fill_between([r[0] for r in band], [r[2] for r in band], [r[3] for r in band],
+                         color="gray", alpha=0.3, linewidth=0,
+                         label=f"95 % band, {band[0][6]} runs, 3 dof")
+    axes[1].axhline(0.03, color="k", linewidth=0.5, linestyle=":")  # the paper's 0.03 rad
+    axes[0].set_ylabel("position RMSE [m] (log)")
+    axes[1].set_ylabel("heading RMSE [rad] (log)")
+    axes[2].set_ylabel("average NEES (log)")
+    axes[2].set_xlabel("time [s]")
+    axes[0].set_title(f"seed 001 paper 5 world: EKF vs AEKF ({band[0][6]} Monte Carlo runs)",
+                      fontsize=10)
+    return finish(plt, fig, axes, images, "aekf_vs_ekf", legend_size=7)
 
 
 def main():
@@ -112,9 +150,9 @@ def main():
         png = plot_sweep(plt, args.out, name, prefix, xlabel, title, images)
         if png:
             print(png)
-    png = plot_nees(plt, args.out, images)
-    if png:
-        print(png)
+    for png in (plot_nees(plt, args.out, images), plot_aekf(plt, args.out, images)):
+        if png:
+            print(png)
     return 0
 
 

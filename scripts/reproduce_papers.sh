@@ -7,7 +7,10 @@
 #           (seed 000, tables 1 and 2)
 #   hybrid  hybrid: JCBB, NNJCBB (and NN, DJNN for reference) (seed 003, A/P/R/F1)
 #   rrw     rrw_noise_*, rrw_kidnap_*, rrw_occlusion_*: NN, Hungarian, DJNN (seed 004)
-#   aekf    aekf: NN, DJNN with the plain EKF (seed 001 paper 5; AEKF comes later)
+#   aekf    aekf: NN, DJNN with the plain EKF (RUNS runs), then the paper's experiment: plain
+#           EKF (aekf_ekf) and AEKF with wheel factors (aekf_aekf), 50 runs each on the same
+#           seeds, true associations and NN, yaw-rate noise of the steering noise on a straight
+#           (seed 001 paper 5; docs/results.md)
 set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 RUNS=${RUNS:-20}
@@ -42,7 +45,13 @@ for e in "${experiments[@]}"; do
       run rrw_kidnap 'rrw_kidnap_*' ekf_slam/NN,ekf_slam/Hungarian,ekf_slam/DJNN
       run rrw_occlusion 'rrw_occlusion_*' ekf_slam/NN,ekf_slam/Hungarian,ekf_slam/DJNN
       ;;
-    aekf) run aekf aekf ekf_slam/NN,ekf_slam/DJNN ;;
+    aekf)
+      run aekf aekf ekf_slam/NN,ekf_slam/DJNN
+      # sigma_w = v sigma_steer / L: the world's 2 deg steering noise at 3 m/s on a 4 m base.
+      paper=(--runs 50 --set twist_sigma_w=0 --set twist_sigma_w_per_v=0.008726646259971648)
+      run aekf_ekf aekf truth,ekf_slam/NN "${paper[@]}" --odometry-correction none
+      run aekf_aekf aekf truth,ekf_slam/NN "${paper[@]}" --odometry-correction wheel_factors
+      ;;
     *) echo "unknown experiment '$e' (djnn hybrid rrw aekf)"; exit 2 ;;
   esac
 done

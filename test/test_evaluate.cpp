@@ -142,6 +142,39 @@ TEST(Evaluate, OverridesReachTheAssociator) {
   EXPECT_THROW(runEvaluation(o, log), ParameterError);
 }
 
+// --odometry-correction reaches the pipeline; 'truth' is the true association; results.csv
+// carries the final correction estimates and the world's true values.
+TEST(Evaluate, OdometryCorrectionAndTrueAssociations) {
+  EvaluateOptions o;
+  std::string error;
+  ASSERT_TRUE(parse({"--world", "aekf", "--out", "/tmp/x", "--odometry-correction", "wheel_factors",
+                     "--associators", "truth"},
+                    &o, &error))
+      << error;
+  EXPECT_EQ(o.odometry_correction, "wheel_factors");
+  const TempDir tmp("evaluate_aekf");
+  o.out_dir = tmp.path().string();
+  o.runs = 1;
+  o.progress = false;
+  std::ostringstream log;
+  const Evaluation e = runEvaluation(o, log);
+  ASSERT_EQ(e.rows.size(), 1u);
+  const RunMetrics& m = e.rows[0].metrics;
+  EXPECT_EQ(e.rows[0].associator, "truth");
+  EXPECT_EQ(e.rows[0].odometry_correction, "wheel_factors");
+  EXPECT_DOUBLE_EQ(m.counts.accuracy(), 1.0);
+  ASSERT_EQ(m.correction_names.size(), 2u);
+  // The simulated factors 1.03 / 1.05, within 3 of the filter's std devs.
+  EXPECT_NEAR(m.correction(0), 1.03, 3.0 * m.correction_sigma(0));
+  EXPECT_NEAR(m.correction(1), 1.05, 3.0 * m.correction_sigma(1));
+  writeEvaluation(e, "evaluate --world aekf");
+  const std::string csv = readFile(o.out_dir + "/results.csv");
+  EXPECT_NE(csv.find(",wheel_factors,left_factor,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",1.03,right_factor,"), std::string::npos) << csv;
+  EXPECT_NE(readFile(o.out_dir + "/nees.csv").find("position_rmse_m"), std::string::npos);
+  EXPECT_NE(readFile(o.out_dir + "/summary.md").find("truth 1.0300"), std::string::npos);
+}
+
 TEST(Evaluate, UnknownAssociatorListsTheAvailableOnes) {
   EvaluateOptions o = tinyOptions("/nonexistent");
   o.associators = {"ekf_slam/DJN"};

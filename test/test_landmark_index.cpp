@@ -94,7 +94,7 @@ TEST(LandmarkIndex, SyncAfterAddRemoveMove) {
   // Move: a landmark whose estimate jumps into another cell is re-binned.
   Eigen::VectorXd x = ekf.mean();
   const int k = ekf.indexOf(17);
-  x.segment<2>(EkfSlam::stateRow(k)) = Eigen::Vector2d(-100.0, -100.0);
+  x.segment<2>(ekf.stateRow(k)) = Eigen::Vector2d(-100.0, -100.0);
   ekf.setState(x, ekf.covariance(), ekf.landmarkIds());
   index.sync(ekf);
   EXPECT_EQ(index.size(), 3u);
@@ -133,7 +133,7 @@ TEST(LandmarkIndex, RandomEditsStayConsistent) {
     } else {
       Eigen::VectorXd x = ekf.mean();
       const int k = static_cast<int>(rng() % ekf.numLandmarks());
-      x.segment<2>(EkfSlam::stateRow(k)) += Eigen::Vector2d(pos(rng), pos(rng)) * 0.1;
+      x.segment<2>(ekf.stateRow(k)) += Eigen::Vector2d(pos(rng), pos(rng)) * 0.1;
       ekf.setState(x, ekf.covariance(), ekf.landmarkIds());
     }
     index.sync(ekf);

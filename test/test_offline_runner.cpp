@@ -155,7 +155,7 @@ TEST_F(OfflineRunnerTest, WritesEveryFileWithItsHeaderAndRows) {
 
   const auto gps = readLines(out / "gps.csv");
   ASSERT_FALSE(gps.empty());
-  EXPECT_EQ(gps[0], "stamp,x,y,x_map,y_map");
+  EXPECT_EQ(gps[0], "stamp,x,y,x_map,y_map,faulty");
   EXPECT_EQ(gps.size() - 1, counts_.gps);
 
   std::ifstream metrics_file(out / "metrics.json");
@@ -163,7 +163,8 @@ TEST_F(OfflineRunnerTest, WritesEveryFileWithItsHeaderAndRows) {
   for (const char* key :
        {"associator", "scans", "odometry_messages", "landmarks", "wall_time_s", "bag_read_s",
         "association_time_s", "association_us_median", "association_us_p99", "update_us_median",
-        "gps_rmse_m", "gps_rmse_unaligned_m", "gps_points", "counters"}) {
+        "gps_rmse_m", "gps_rmse_clean_m", "gps_faulty_fixes", "gps_rmse_unaligned_m", "gps_points",
+        "odometry_correction", "counters"}) {
     EXPECT_TRUE(m.contains(key)) << key;
   }
   EXPECT_EQ(m["associator"], "DJNN");
@@ -173,6 +174,8 @@ TEST_F(OfflineRunnerTest, WritesEveryFileWithItsHeaderAndRows) {
   EXPECT_GT(m["gps_points"].get<std::size_t>(), 10u);
   // A 60 s drive with a consistent map stays within a few metres of GPS.
   EXPECT_LT(m["gps_rmse_m"].get<double>(), 5.0);
+  EXPECT_LE(m["gps_rmse_clean_m"].get<double>(), m["gps_rmse_m"].get<double>() + 1e-9);
+  EXPECT_EQ(m["odometry_correction"]["mode"], "none");
   EXPECT_EQ(m["counters"]["rejected_updates"].get<int>(), 0);
   EXPECT_NEAR(m["sensor_offset"][0].get<double>(), vp::kLaserX, 1e-9);
   EXPECT_NEAR(m["sensor_offset"][1].get<double>(), vp::kLaserY, 1e-9);
@@ -181,6 +184,43 @@ TEST_F(OfflineRunnerTest, WritesEveryFileWithItsHeaderAndRows) {
   if (log.str().find("matplotlib") == std::string::npos) {
     EXPECT_TRUE(fs::exists(out / "map.png")) << log.str();
   }
+}
+
+// With odometry correction states the estimates and std devs are in trajectory.csv (per scan)
+// and metrics.json (final); the dumped association problem leaves them out (3 + 2n).
+TEST_F(OfflineRunnerTest, WritesTheOdometryCorrectionEstimates) {
+  OfflineOptions o = options("aekf");
+  const fs::path yaml = fs::path(o.out_dir).parent_path() / "aekf.yaml";
+  {
+    std::ifstream in(kConfig);
+    std::ofstream out(yaml);
+    for (std::string line; std::getline(in, line);)
+      out << (line.rfind("odometry_correction:", 0) == 0
+                  ? "odometry_correction: speed_scale_yaw_bias"
+                  : line)
+          << '\n';
+  }
+  o.params_path = yaml.string();
+  o.dump_problem_scan = 100;
+  std::ostringstream log;
+  runOffline(o, log);
+  const auto traj = readLines(fs::path(o.out_dir) / "trajectory.csv");
+  ASSERT_GT(traj.size(), 100u);
+  EXPECT_EQ(traj[0],
+            "stamp,x,y,yaw,var_x,var_y,var_yaw,speed_scale,speed_scale_sd,yaw_bias,yaw_bias_sd");
+  const auto last = split(traj.back());
+  ASSERT_EQ(last.size(), 11u);
+  EXPECT_NEAR(std::stod(last[7]), 1.0, 0.1);  // a speed scale near 1
+  EXPECT_LT(std::stod(last[8]), 0.1);         // better known than the prior
+  EXPECT_GT(std::stod(last[8]), 0.0);
+  std::ifstream metrics_file(fs::path(o.out_dir) / "metrics.json");
+  const nlohmann::json m = nlohmann::json::parse(metrics_file);
+  EXPECT_EQ(m["odometry_correction"]["mode"], "speed_scale_yaw_bias");
+  EXPECT_TRUE(m["odometry_correction"].contains("yaw_bias_sd"));
+  EXPECT_EQ(m["counters"]["rejected_updates"].get<int>(), 0);
+  const AssociationProblem p =
+      readAssociationProblem((fs::path(o.out_dir) / "problem_100.json").string());
+  EXPECT_EQ((p.state.size() - 3) % 2, 0);
 }
 
 TEST_F(OfflineRunnerTest, DumpedProblemIsReadBackByReplay) {

@@ -1,6 +1,7 @@
 // readPipelineConfig: defaults, every name read, bad values name the parameter.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <string>
 
 #include "ekf_slam/core/pipeline_config.h"
@@ -93,6 +94,55 @@ TEST(PipelineConfig, BadValuesNameTheParameter) {
   expectError("initial_pose_x", "inf");
   expectError("max_latency", "-0.5");
   expectError("time_jump_threshold", "0");
+}
+
+TEST(PipelineConfig, OdometryCorrectionParameters) {
+  const PipelineConfig d = readPipelineConfig(MapParameterSource());
+  EXPECT_EQ(d.correction.mode, "none");
+  EXPECT_DOUBLE_EQ(d.correction.wheel_factor_initial, 1.0);
+  EXPECT_DOUBLE_EQ(d.correction.wheel_factor_sigma * d.correction.wheel_factor_sigma, 0.1);
+
+  const MapParameterSource p({{"odometry_correction", "wheel_factors"},
+                              {"correction_track_width", "1.6"},
+                              {"correction_wheel_factor_initial", "1.1"},
+                              {"correction_wheel_factor_sigma", "0.2"},
+                              {"correction_wheel_factor_noise", "0.001"},
+                              {"correction_speed_scale_noise", "0.002"},
+                              {"correction_yaw_bias_sigma", "0.03"},
+                              {"correction_factor_max", "1.5"}});
+  const PipelineConfig c = readPipelineConfig(p);
+  EXPECT_EQ(c.correction.mode, "wheel_factors");
+  EXPECT_DOUBLE_EQ(c.correction.track_width, 1.6);
+  EXPECT_DOUBLE_EQ(c.correction.wheel_factor_initial, 1.1);
+  EXPECT_DOUBLE_EQ(c.correction.wheel_factor_sigma, 0.2);
+  EXPECT_DOUBLE_EQ(c.correction.wheel_factor_noise, 0.001);
+  EXPECT_DOUBLE_EQ(c.correction.speed_scale_noise, 0.002);
+  EXPECT_DOUBLE_EQ(c.correction.yaw_bias_sigma, 0.03);
+  EXPECT_DOUBLE_EQ(c.correction.factor_max, 1.5);
+
+  expectError("odometry_correction", "gyro");
+  expectError("correction_track_width", "0");
+  expectError("correction_speed_scale_sigma", "0");
+  expectError("correction_wheel_factor_noise", "-1");
+  expectError("correction_speed_scale_initial", "-1");  // would reverse the speed
+  expectError("correction_yaw_bias_max", "nan");
+
+  // Cross-field checks name the parameter too.
+  const auto expectInvalid = [](std::map<std::string, std::string> values,
+                                const std::string& name) {
+    try {
+      readPipelineConfig(MapParameterSource(values));
+      ADD_FAILURE() << name << " accepted";
+    } catch (const ParameterError& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+  };
+  expectInvalid({{"odometry_correction", "speed_scale"}, {"odometry_mode", "pose_delta"}},
+                "odometry_correction");
+  expectInvalid({{"correction_speed_scale_initial", "3"}}, "correction_speed_scale_initial");
+  expectInvalid({{"correction_factor_min", "2"}, {"correction_factor_max", "1.5"}},
+                "correction_factor_max");
+  expectInvalid({{"correction_yaw_bias_initial", "0.5"}}, "correction_yaw_bias_initial");
 }
 
 TEST(PipelineConfig, ValidateNamesTheField) {

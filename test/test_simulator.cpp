@@ -156,7 +156,13 @@ TEST(Worlds, PaperSpecs) {
   EXPECT_EQ(a.controlStepsPerObservation(), 8);
   EXPECT_DOUBLE_EQ(a.noise.sigma_range, 0.2);
   EXPECT_DOUBLE_EQ(a.noise.sigma_bearing, deg2rad(2.0));
-  EXPECT_NE(a.noise.odometry_speed_scale, 1.0);  // biased wheel speeds
+  // Biased wheel speeds: both under-reported, the right one more (the odometry turns right).
+  EXPECT_EQ(a.noise.odometry_wheel_factors, Eigen::Vector2d(1.03, 1.05));
+  const Eigen::Vector2d straight = biasedOdometry(a, 0.0);
+  EXPECT_NEAR(straight(0), 3.0 * 0.5 * (1 / 1.03 + 1 / 1.05), 1e-12);
+  EXPECT_LT(straight(1), -0.01);
+  EXPECT_TRUE(trueCorrection(a, "wheel_factors").isApprox(Eigen::Vector2d(1.03, 1.05)));
+  EXPECT_TRUE(std::isnan(trueCorrection(a, "speed_scale")(0)));
   // Anticlockwise loop: positive signed area of the route polygon.
   double area2 = 0.0;
   Eigen::Vector2d prev = a.start_pose.head<2>();
@@ -364,9 +370,10 @@ void checkNoise(const World& w, std::uint64_t seed) {
   NoiseCheck speed, steer, range, bearing;
   const double L = w.vehicle.wheelbase;
   for (const OdometrySample& o : r.odometry) {
-    speed.add((o.twist(0) - w.noise.odometry_speed_scale * o.true_twist(0)) / w.noise.sigma_speed);
+    const Eigen::Vector2d biased = biasedOdometry(w, o.true_steer);
+    speed.add((o.twist(0) - biased(0)) / w.noise.sigma_speed);
     const double steer_odom = std::atan(o.twist(1) * L / o.twist(0));
-    steer.add((steer_odom - o.true_steer - w.noise.odometry_steer_bias) / w.noise.sigma_steer);
+    steer.add((steer_odom - biased(1)) / w.noise.sigma_steer);
   }
   const RangeBearingModel model(w.sensor.offset);
   double nis_sum = 0.0;

@@ -181,6 +181,60 @@ TEST(CompareTrajectories, UnsortedEstimateAndNoOverlap) {
   EXPECT_TRUE(std::isnan(e.rmse_unaligned));
 }
 
+// --- faulty GPS fixes ---------------------------------------------------------------------------
+
+// A vehicle driving a circle of radius 50 m at 5 m/s (odometry at 40 Hz), GPS at 2 Hz with 0.5 m
+// noise.
+struct Drive {
+  std::vector<StampedPoint> gps;
+  std::vector<StampedSpeed> odometry;
+};
+
+Drive circleDrive(double duration = 120.0) {
+  Drive d;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0.0, 0.5);
+  for (double t = 0.0; t <= duration; t += 0.025) d.odometry.push_back({t, 5.0});
+  for (double t = 0.3; t < duration; t += 0.5) {
+    const double a = 5.0 * t / 50.0;
+    d.gps.push_back({t, Eigen::Vector2d(50.0 * std::cos(a) + n(rng), 50.0 * std::sin(a) + n(rng))});
+  }
+  return d;
+}
+
+std::size_t count(const std::vector<bool>& v) {
+  return static_cast<std::size_t>(std::count(v.begin(), v.end(), true));
+}
+
+TEST(FaultyGpsFixes, CleanTrackHasNone) {
+  const Drive d = circleDrive();
+  EXPECT_EQ(count(faultyGpsFixes(d.gps, d.odometry)), 0u);
+}
+
+TEST(FaultyGpsFixes, SpikesAndShortExcursionsAreFlagged) {
+  Drive d = circleDrive();
+  d.gps[40].position += Eigen::Vector2d(12.0, -5.0);                                // one wild fix
+  for (int i = 100; i < 104; ++i) d.gps[i].position += Eigen::Vector2d(0.0, 25.0);  // 2 s away
+  const std::vector<bool> f = faultyGpsFixes(d.gps, d.odometry);
+  EXPECT_TRUE(f[40]);
+  for (int i = 100; i < 104; ++i) EXPECT_TRUE(f[i]) << i;
+  EXPECT_EQ(count(f), 5u);
+}
+
+TEST(FaultyGpsFixes, JumpsTheOdometryExplainsAreNot) {
+  // The vehicle really moves 12 m between two fixes (a GPS outage of 2.4 s): consistent.
+  Drive d = circleDrive();
+  d.gps.erase(d.gps.begin() + 50, d.gps.begin() + 54);
+  EXPECT_EQ(count(faultyGpsFixes(d.gps, d.odometry)), 0u);
+  // A jump that lasts longer than max_run fixes is not judged (nothing says which side is right).
+  Drive e = circleDrive();
+  for (std::size_t i = 60; i < e.gps.size(); ++i) e.gps[i].position += Eigen::Vector2d(10.0, 0.0);
+  EXPECT_EQ(count(faultyGpsFixes(e.gps, e.odometry)), 0u);
+  // Without odometry speed, even a small true motion is a jump: the rule needs the odometry.
+  std::vector<StampedSpeed> still = {{0.0, 0.0}};
+  EXPECT_GT(count(faultyGpsFixes(circleDrive().gps, still, {3.0, 0.2, 1000})), 0u);
+}
+
 }  // namespace
 }  // namespace ekf_slam
 

@@ -62,7 +62,7 @@ AssociationContext::Individual AssociationContext::individual(int obs, int landm
   const Prediction& p = prediction(landmark);
   const Observation& o = obs_[obs];
   const Eigen::MatrixXd& P = ekf_.covariance();
-  const int r = EkfSlam::stateRow(landmark);
+  const int r = ekf_.stateRow(landmark);
 
   // S = H P H^T + R with H = [H_pose 0 .. H_landmark .. 0]: only the pose, landmark and
   // pose-landmark blocks of P take part.
@@ -98,8 +98,8 @@ Eigen::Matrix2d AssociationContext::innovationCovariance(int obs_a, int lm_a, in
   const Prediction& a = prediction(lm_a);
   const Prediction& b = prediction(lm_b);
   const Eigen::MatrixXd& P = ekf_.covariance();
-  const int ra = EkfSlam::stateRow(lm_a);
-  const int rb = EkfSlam::stateRow(lm_b);
+  const int ra = ekf_.stateRow(lm_a);
+  const int rb = ekf_.stateRow(lm_b);
   // cov(v_a, v_b) = H_a P H_b^T (+ R when both pairs use the same observation); the pose block
   // is what correlates pairs on different landmarks even when the map blocks are independent.
   const Eigen::Matrix<double, 3, 2> PvHb = P.topLeftCorner<3, 3>() * b.H_pose.transpose() +

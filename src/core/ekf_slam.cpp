@@ -35,13 +35,39 @@ void mirrorLower(Eigen::MatrixXd* P) {
 
 EkfSlam::EkfSlam() { reset(); }
 
-void EkfSlam::reset(const Eigen::Vector3d& pose, const Eigen::Matrix3d& pose_cov) {
-  x_ = pose;
+void EkfSlam::reset(const Eigen::Vector3d& pose, const Eigen::Matrix3d& pose_cov,
+                    const CorrectionPrior& correction) {
+  const int k = correction.dim;
+  if (k < 0 || k > kMaxCorrectionStates || !correction.mean.allFinite() ||
+      !correction.sigma.allFinite()) {
+    throw std::invalid_argument("EkfSlam::reset: invalid correction prior (dim " +
+                                std::to_string(k) + ")");
+  }
+  k_ = k;
+  c_lower_ = correction.lower;
+  c_upper_ = correction.upper;
+  x_.resize(3 + k);
+  x_.head<3>() = pose;
   x_(2) = wrapAngle(x_(2));
-  P_ = 0.5 * (pose_cov + pose_cov.transpose());
+  x_.segment(3, k) = correction.mean.head(k);
+  P_ = Eigen::MatrixXd::Zero(3 + k, 3 + k);
+  P_.topLeftCorner<3, 3>() = 0.5 * (pose_cov + pose_cov.transpose());
+  P_.block(3, 3, k, k) = correction.sigma.head(k).cwiseAbs2().asDiagonal();
   ids_.clear();
   index_of_.clear();
   next_id_ = 0;
+}
+
+Eigen::Vector2d EkfSlam::correction() const {
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  c.head(k_) = x_.segment(3, k_);
+  return c;
+}
+
+Eigen::Matrix2d EkfSlam::correctionCovariance() const {
+  Eigen::Matrix2d C = Eigen::Matrix2d::Zero();
+  C.topLeftCorner(k_, k_) = P_.block(3, 3, k_, k_);
+  return C;
 }
 
 int EkfSlam::indexOf(LandmarkId id) const {
@@ -51,6 +77,8 @@ int EkfSlam::indexOf(LandmarkId id) const {
 
 bool EkfSlam::predict(const MotionStep& step) {
   if (!step.pose.allFinite() || !step.F.allFinite() || !step.Q.allFinite()) return false;
+  if (step.corrections != k_) return false;
+  if (k_ > 0) return predictAugmented(step);
   const Eigen::Matrix3d& F = step.F;
   x_.head<3>() = step.pose;
   x_(2) = wrapAngle(x_(2));
@@ -63,6 +91,38 @@ bool EkfSlam::predict(const MotionStep& step) {
   const Eigen::Index n = P_.rows();
   for (Eigen::Index r = 3; r < n; r += 2) {
     const Eigen::Matrix<double, 3, 2> c = F * P_.block<3, 2>(0, r);
+    P_.block<3, 2>(0, r) = c;
+    P_.block<2, 3>(r, 0) = c.transpose();
+  }
+  return true;
+}
+
+bool EkfSlam::predictAugmented(const MotionStep& step) {
+  if (!step.Fc.allFinite() || !step.Qvc.allFinite() || !step.Qc.allFinite()) return false;
+  // Vehicle block a = [pose, c] with transition A = [F Fc; 0 I]; only the pose rows change, so
+  // the map part is B P_am with B = [F Fc] (3 x a): still O(n).
+  using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3 + kMaxCorrectionStates,
+                              3 + kMaxCorrectionStates>;
+  const int a = 3 + k_;
+  Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, 3 + kMaxCorrectionStates> B(3, a);
+  B.leftCols<3>() = step.F;
+  B.rightCols(k_) = step.Fc.leftCols(k_);
+  Small A = Small::Identity(a, a);
+  A.topRows<3>() = B;
+  Small N = Small::Zero(a, a);
+  N.topLeftCorner<3, 3>() = step.Q;
+  N.topRightCorner(3, k_) = step.Qvc.leftCols(k_);
+  N.bottomLeftCorner(k_, 3) = step.Qvc.leftCols(k_).transpose();
+  N.bottomRightCorner(k_, k_) = step.Qc.topLeftCorner(k_, k_);
+  const Small Paa = P_.topLeftCorner(a, a);
+  Small Pn = A * Paa * A.transpose() + N;
+  P_.topLeftCorner(a, a) = 0.5 * (Pn + Pn.transpose());
+
+  x_.head<3>() = step.pose;
+  x_(2) = wrapAngle(x_(2));
+  const Eigen::Index n = P_.rows();
+  for (Eigen::Index r = a; r < n; r += 2) {
+    const Eigen::Matrix<double, 3, 2> c = B * P_.block(0, r, a, 2);
     P_.block<3, 2>(0, r) = c;
     P_.block<2, 3>(r, 0) = c.transpose();
   }
@@ -126,9 +186,22 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   llt.matrixL().solveInPlace(v_);
   dx_.noalias() = pht_ * v_;
   if (!dx_.allFinite() || !pht_.allFinite()) return false;
+  // A correction state's variance must stay positive (P_cc - W_c W_c^T): otherwise refuse the
+  // update rather than leave a non-positive-definite filter.
+  for (int i = 3; i < 3 + k_; ++i) {
+    if (!(P_(i, i) - pht_.row(i).squaredNorm() > 0.0)) {
+      ++refusals_;
+      return false;
+    }
+  }
 
   x_ += dx_;
   x_(2) = wrapAngle(x_(2));
+  for (int i = 0; i < k_; ++i) {
+    const double c = x_(3 + i);
+    x_(3 + i) = std::clamp(c, c_lower_(i), c_upper_(i));
+    if (x_(3 + i) != c) ++clamps_;
+  }
   P_.selfadjointView<Eigen::Lower>().rankUpdate(pht_, -1.0);
   mirrorLower(&P_);
   if (nis) *nis = v_.squaredNorm();
@@ -180,7 +253,7 @@ LandmarkId EkfSlam::insertLandmark(const Eigen::Vector2d& position, const Eigen:
 
 void EkfSlam::setState(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance,
                        const std::vector<LandmarkId>& ids) {
-  const Eigen::Index n = 3 + 2 * static_cast<Eigen::Index>(ids.size());
+  const Eigen::Index n = 3 + k_ + 2 * static_cast<Eigen::Index>(ids.size());
   if (mean.size() != n || covariance.rows() != n || covariance.cols() != n) {
     throw std::invalid_argument("EkfSlam::setState: mean " + std::to_string(mean.size()) +
                                 ", covariance " + std::to_string(covariance.rows()) + "x" +

@@ -109,10 +109,12 @@ Eigen::Vector3d TwistModel::predict(const Eigen::Vector3d& x, const Input& u, do
   return Eigen::Vector3d(x(0) + ddx, x(1) + ddy, wrapAngle(x(2) + p));
 }
 
-MotionStep TwistModel::step(const Eigen::Vector3d& x, const Input& u, double dt) const {
+MotionStep TwistModel::step(const Eigen::Vector3d& x, const Input& u, double dt,
+                            Eigen::Matrix<double, 3, 2>* G_out) const {
   MotionStep out;
   Eigen::Matrix<double, 3, 2> G;
   out.pose = predict(x, u, dt, &out.F, &G);
+  if (G_out) *G_out = G;
   const double av = std::abs(u(0));
   const double sv = p_.sigma_v + p_.sigma_v_per_v * av;
   const double sw = p_.sigma_w + p_.sigma_w_per_v * av;

@@ -51,6 +51,13 @@ std::string str(const T& v) {
 
 }  // namespace
 
+void requireParameter(bool ok, const std::string& name, const std::string& what, double value) {
+  if (ok) return;
+  std::ostringstream os;
+  os << "parameter " << name << ": " << what << ", got " << value;
+  throw ParameterError(os.str());
+}
+
 // --- MapParameterSource --------------------------------------------------------------------------
 
 bool MapParameterSource::get(const std::string& name, double* value) const {

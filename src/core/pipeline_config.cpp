@@ -16,21 +16,15 @@ Eigen::Matrix3d diagonalCovariance(double sx, double sy, double syaw) {
 
 double sigmaOf(const Eigen::Matrix3d& cov, int axis) { return std::sqrt(cov(axis, axis)); }
 
-void check(bool ok, const std::string& name, const std::string& what, double value) {
-  if (ok) return;
-  std::ostringstream os;
-  os << "parameter " << name << ": " << what << ", got " << value;
-  throw ParameterError(os.str());
-}
-
 void checkAdditive(const Eigen::Matrix3d& a, const std::string& prefix) {
   const char* axis[3] = {"x", "y", "yaw"};
   for (int i = 0; i < 3; ++i) {
-    check(std::isfinite(a(i, i)) && a(i, i) >= 0.0, prefix + "_additive_sigma_" + axis[i],
-          "variance must be finite and >= 0", a(i, i));
+    requireParameter(std::isfinite(a(i, i)) && a(i, i) >= 0.0,
+                     prefix + "_additive_sigma_" + axis[i], "variance must be finite and >= 0",
+                     a(i, i));
   }
-  check(a.allFinite() && a.isApprox(a.transpose()), prefix + "_additive_sigma_x",
-        "additive covariance must be symmetric and finite", a(0, 1));
+  requireParameter(a.allFinite() && a.isApprox(a.transpose()), prefix + "_additive_sigma_x",
+                   "additive covariance must be symmetric and finite", a(0, 1));
 }
 
 }  // namespace
@@ -43,11 +37,16 @@ void PipelineConfig::validate() const {
   if (mode != "slam" && mode != "localization") {
     throw ParameterError("parameter mode: must be one of {slam, localization}, got '" + mode + "'");
   }
+  correction.validate();
+  if (correction.mode != "none" && odometry_mode != "twist") {
+    throw ParameterError("parameter odometry_correction: '" + correction.mode +
+                         "' needs odometry_mode twist, got '" + odometry_mode + "'");
+  }
   const auto nonNegative = [](double v, const std::string& name) {
-    check(std::isfinite(v) && v >= 0.0, name, "must be finite and >= 0", v);
+    requireParameter(std::isfinite(v) && v >= 0.0, name, "must be finite and >= 0", v);
   };
   const auto positive = [](double v, const std::string& name) {
-    check(std::isfinite(v) && v > 0.0, name, "must be finite and > 0", v);
+    requireParameter(std::isfinite(v) && v > 0.0, name, "must be finite and > 0", v);
   };
   nonNegative(twist.sigma_v, "twist_sigma_v");
   nonNegative(twist.sigma_v_per_v, "twist_sigma_v_per_v");
@@ -64,15 +63,16 @@ void PipelineConfig::validate() const {
   positive(sigma_bearing, "sigma_bearing");
   nonNegative(min_observation_range, "min_observation_range");
   positive(max_observation_range, "max_observation_range");
-  check(min_observation_range < max_observation_range, "min_observation_range",
-        "must be < max_observation_range", min_observation_range);
+  requireParameter(min_observation_range < max_observation_range, "min_observation_range",
+                   "must be < max_observation_range", min_observation_range);
 
   positive(extractor.max_range, "extractor_max_range");
   positive(extractor.range_jump, "extractor_range_jump");
   positive(extractor.angle_gap, "extractor_angle_gap");
   nonNegative(extractor.occlusion_distance, "extractor_occlusion_distance");
-  check(extractor.occlusion_lookahead >= 0 && extractor.occlusion_lookahead <= 1000,
-        "extractor_occlusion_lookahead", "must lie in [0, 1000]", extractor.occlusion_lookahead);
+  requireParameter(extractor.occlusion_lookahead >= 0 && extractor.occlusion_lookahead <= 1000,
+                   "extractor_occlusion_lookahead", "must lie in [0, 1000]",
+                   extractor.occlusion_lookahead);
   nonNegative(extractor.neighbour_angle, "extractor_neighbour_angle");
   positive(extractor.max_extent, "extractor_max_extent");
   nonNegative(extractor.min_range, "extractor_min_range");
@@ -82,8 +82,8 @@ void PipelineConfig::validate() const {
 
   const char* axis[3] = {"x", "y", "yaw"};
   for (int i = 0; i < 3; ++i) {
-    check(std::isfinite(initial_pose(i)), std::string("initial_pose_") + axis[i], "must be finite",
-          initial_pose(i));
+    requireParameter(std::isfinite(initial_pose(i)), std::string("initial_pose_") + axis[i],
+                     "must be finite", initial_pose(i));
     nonNegative(initial_pose_sigma(i), std::string("initial_pose_sigma_") + axis[i]);
   }
   positive(index_cell_size, "index_cell_size");
@@ -118,6 +118,23 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
       diagonalCovariance(r.nonNegative("pose_delta_additive_sigma_x", sigmaOf(d.additive, 0)),
                          r.nonNegative("pose_delta_additive_sigma_y", sigmaOf(d.additive, 1)),
                          r.nonNegative("pose_delta_additive_sigma_yaw", sigmaOf(d.additive, 2)));
+
+  OdometryCorrectionParams& oc = c.correction;
+  oc.mode = r.text("odometry_correction", oc.mode,
+                   {"none", "speed_scale", "speed_scale_yaw_bias", "wheel_factors"});
+  oc.speed_scale_initial = r.positive("correction_speed_scale_initial", oc.speed_scale_initial);
+  oc.speed_scale_sigma = r.positive("correction_speed_scale_sigma", oc.speed_scale_sigma);
+  oc.speed_scale_noise = r.nonNegative("correction_speed_scale_noise", oc.speed_scale_noise);
+  oc.yaw_bias_initial = r.number("correction_yaw_bias_initial", oc.yaw_bias_initial);
+  oc.yaw_bias_sigma = r.positive("correction_yaw_bias_sigma", oc.yaw_bias_sigma);
+  oc.yaw_bias_noise = r.nonNegative("correction_yaw_bias_noise", oc.yaw_bias_noise);
+  oc.wheel_factor_initial = r.positive("correction_wheel_factor_initial", oc.wheel_factor_initial);
+  oc.wheel_factor_sigma = r.positive("correction_wheel_factor_sigma", oc.wheel_factor_sigma);
+  oc.wheel_factor_noise = r.nonNegative("correction_wheel_factor_noise", oc.wheel_factor_noise);
+  oc.track_width = r.positive("correction_track_width", oc.track_width);
+  oc.factor_min = r.positive("correction_factor_min", oc.factor_min);
+  oc.factor_max = r.positive("correction_factor_max", oc.factor_max);
+  oc.yaw_bias_max = r.positive("correction_yaw_bias_max", oc.yaw_bias_max);
 
   c.sigma_range = r.positive("sigma_range", c.sigma_range);
   c.sigma_bearing = r.positive("sigma_bearing", c.sigma_bearing);

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/pipeline_config.h"
 
 namespace ekf_slam {
@@ -30,7 +31,7 @@ double coveringRange(const World& w) {
 
 std::map<std::string, std::string> pipelineParametersFor(const World& world) {
   const TwistParams t = twistNoiseFor(world);
-  return {
+  std::map<std::string, std::string> p = {
       {"odometry_mode", "twist"},
       {"twist_sigma_v", text(t.sigma_v)},
       {"twist_sigma_v_per_v", text(t.sigma_v_per_v)},
@@ -44,6 +45,10 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
       {"initial_pose_y", text(world.start_pose.y())},
       {"initial_pose_yaw", text(world.start_pose.z())},
   };
+  // What odometry_correction: wheel_factors needs to match the simulated wheels.
+  if (world.noise.odometry_wheel_factors != Eigen::Vector2d::Ones())
+    p["correction_track_width"] = text(world.vehicle.track_width);
+  return p;
 }
 
 PipelineConfig pipelineConfigFor(const World& world) {
@@ -60,6 +65,27 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
 }
 
 }  // namespace sim
+
+// --- KnownAssociation ----------------------------------------------------------------------------
+
+AssociationResult KnownAssociation::associate(const AssociationContext& context) {
+  AssociationResult r;
+  r.resize(context.numObservations());
+  for (std::size_t i = 0; i < context.numObservations() && i < truth_.size(); ++i) {
+    if (!sim::isStaticLandmark(truth_[i])) continue;  // movers and clutter: rejected
+    const auto it = landmark_of_.find(truth_[i]);
+    if (it != landmark_of_.end() && context.ekf().contains(it->second)) {
+      r.pair(i, it->second);
+    } else {
+      r.decision[i] = Decision::kNew;
+    }
+  }
+  return r;
+}
+
+void KnownAssociation::landmarkAdded(int obs, LandmarkId id) {
+  if (obs >= 0 && static_cast<std::size_t>(obs) < truth_.size()) landmark_of_[truth_[obs]] = id;
+}
 
 // --- RunScorer -----------------------------------------------------------------------------------
 
@@ -80,14 +106,18 @@ void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>&
     first_stamp_ = report.stamp;
   }
   double nees = std::numeric_limits<double>::quiet_NaN();
+  Eigen::Vector2d error = Eigen::Vector2d::Constant(nees);
   if (true_pose != nullptr) {
     nees = pose_.add(estimate, cov, *true_pose);
+    error << (estimate.head<2>() - true_pose->head<2>()).norm(),
+        std::abs(wrapAngle(estimate(2) - (*true_pose)(2)));
     if (std::isfinite(nees) && report.stamp - first_stamp_ >= nees_skip_s_) {
       nees_sum_ += nees;
       ++nees_n_;
     }
   }
   nees_.push_back(nees);
+  errors_.push_back(error);
 }
 
 RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
@@ -107,7 +137,13 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
   const double n = scans_ > 0 ? static_cast<double>(scans_) : 1.0;
   m.association_us_mean = 1e6 * association_s_ / n;
   m.update_us_mean = 1e6 * update_s_ / n;
-  if (pipeline != nullptr) m.rejected_updates = pipeline->counters().rejected_updates;
+  if (pipeline != nullptr) {
+    m.rejected_updates = pipeline->counters().rejected_updates;
+    const EkfSlam& ekf = pipeline->ekf();
+    m.correction_names = pipeline->odometryCorrection().names();
+    m.correction = ekf.correction();
+    m.correction_sigma = ekf.correctionCovariance().diagonal().cwiseSqrt();
+  }
   return m;
 }
 
@@ -115,9 +151,11 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
 
 RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const PipelineConfig& config,
                          std::shared_ptr<DataAssociation> associator,
-                         std::vector<double>* nees_per_scan) {
+                         std::vector<double>* nees_per_scan,
+                         std::vector<Eigen::Vector2d>* errors_per_scan) {
   const auto t0 = std::chrono::steady_clock::now();
   associator->reset();
+  auto* known = dynamic_cast<KnownAssociation*>(associator.get());
   SlamPipeline pipeline(config, std::move(associator));
   pipeline.setSensorOffset(world.sensor.offset);
   sim::Simulation simulation(world, seed);
@@ -137,6 +175,7 @@ RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const Pipe
     }
     const sim::ObservationSet& set = simulation.observations();
     const std::vector<LandmarkId> all = set.truthIds();
+    if (known != nullptr) known->setTruth(all);  // the pipeline keeps every valid observation
     const ScanReport report =
         pipeline.processObservations(set.stamp + sim::kStampOffset, set.toObservations());
     truth.clear();
@@ -146,6 +185,7 @@ RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const Pipe
   RunMetrics m = scorer.metrics(&pipeline);
   m.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (nees_per_scan != nullptr) *nees_per_scan = scorer.neesPerScan();
+  if (errors_per_scan != nullptr) *errors_per_scan = scorer.errorsPerScan();
   return m;
 }
 

@@ -25,7 +25,8 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
 }
 
 bool finite(const MotionStep& s) {
-  return s.pose.allFinite() && s.F.allFinite() && s.Q.allFinite();
+  return s.pose.allFinite() && s.F.allFinite() && s.Q.allFinite() && s.Fc.allFinite() &&
+         s.Qvc.allFinite() && s.Qc.allFinite();
 }
 
 constexpr const char* kMapHeader = "ekf_slam_map 1";
@@ -39,7 +40,8 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
       index_(config.index_cell_size),
       extractor_(config.extractor),
       twist_model_(config.twist),
-      pose_delta_model_(config.pose_delta) {
+      pose_delta_model_(config.pose_delta),
+      correction_(config.correction) {
   config_.validate();
   if (!associator_) throw std::invalid_argument("SlamPipeline: no associator given");
   reset();
@@ -48,7 +50,7 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
 
 void SlamPipeline::reset() {
   const Eigen::Vector3d s = config_.initial_pose_sigma;
-  ekf_.reset(config_.initial_pose, s.cwiseProduct(s).asDiagonal());
+  ekf_.reset(config_.initial_pose, s.cwiseProduct(s).asDiagonal(), correction_.prior());
   index_.clear();
   index_.sync(ekf_);
   info_.clear();
@@ -71,6 +73,14 @@ Eigen::Matrix3d SlamPipeline::poseCovariance() const {
   if (pending_steps_ == 0) return ekf_.poseCovariance();
   const Eigen::Matrix3d Pvv = ekf_.poseCovariance();
   Eigen::Matrix3d P = pending_.F * Pvv * pending_.F.transpose() + pending_.Q;
+  if (const int k = pending_.corrections; k > 0) {
+    // [F Fc] P_aa [F Fc]^T + Q: the cross and correction blocks of the vehicle part.
+    const Eigen::MatrixXd& Pf = ekf_.covariance();
+    using Cols = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxCorrectionStates>;
+    const Cols FPvc = pending_.F * Pf.block(0, 3, 3, k);
+    const Cols Fc = pending_.Fc.leftCols(k);
+    P += FPvc * Fc.transpose() + Fc * FPvc.transpose() + Fc * Pf.block(3, 3, k, k) * Fc.transpose();
+  }
   return 0.5 * (P + P.transpose());
 }
 
@@ -88,18 +98,45 @@ void SlamPipeline::compose(const MotionStep& s) {
   }
   if (pending_steps_ == 0) {
     pending_ = s;
-  } else {
+  } else if (s.corrections == 0) {
     // P' = F2 (F1 P F1^T + Q1) F2^T + Q2 = (F2 F1) P (F2 F1)^T + (F2 Q1 F2^T + Q2): exact, and
     // the pose-map block F2 F1 P_vm likewise.
     pending_.pose = s.pose;
     pending_.Q = s.F * pending_.Q * s.F.transpose() + s.Q;
+    pending_.F = s.F * pending_.F;
+  } else {
+    // With correction states c (constant in a prediction, plus a random walk) each step is
+    // A = [F Fc; 0 I] with noise N = [Q Qvc; Qvc^T Qc]; A2 A1 and A2 N1 A2^T + N2 give
+    //   F = F2 F1, Fc = F2 Fc1 + Fc2, Qc = Qc1 + Qc2, Qvc = F2 Qvc1 + Fc2 Qc1 (+ Qvc2),
+    //   Q = F2 Q1 F2^T + F2 Qvc1 Fc2^T + Fc2 Qvc1^T F2^T + Fc2 Qc1 Fc2^T + Q2.
+    const Eigen::Matrix<double, 3, 2> F2Qvc1 = s.F * pending_.Qvc;
+    pending_.pose = s.pose;
+    pending_.Q = s.F * pending_.Q * s.F.transpose() + F2Qvc1 * s.Fc.transpose() +
+                 s.Fc * F2Qvc1.transpose() + s.Fc * pending_.Qc * s.Fc.transpose() + s.Q;
+    pending_.Qvc = F2Qvc1 + s.Fc * pending_.Qc + s.Qvc;
+    pending_.Qc += s.Qc;
+    pending_.Fc = s.F * pending_.Fc + s.Fc;
     pending_.F = s.F * pending_.F;
   }
   ++pending_steps_;
 }
 
 void SlamPipeline::composeStep(double dt) {
-  compose(twist_model_.step(pose(), last_odom_.twist, dt));
+  if (correction_.dim() == 0) {
+    compose(twist_model_.step(pose(), last_odom_.twist, dt));
+    return;
+  }
+  // The twist the vehicle drove according to the current correction estimate (a prediction
+  // does not move the estimate, so the EKF's mean is current even with motion pending); the
+  // pose's Jacobian w.r.t. the states is G dtwist'/dc.
+  Eigen::Matrix2d J;
+  const Eigen::Vector2d u = correction_.apply(last_odom_.twist, ekf_.correction(), &J);
+  Eigen::Matrix<double, 3, 2> G;
+  MotionStep s = twist_model_.step(pose(), u, dt, &G);
+  s.corrections = correction_.dim();
+  s.Fc = G * J;
+  s.Qc = correction_.randomWalk(dt);
+  compose(s);
 }
 
 void SlamPipeline::composePoseDelta(const Eigen::Vector3d& delta) {
@@ -319,6 +356,8 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
   }
   report.nis_dof = 2 * static_cast<int>(pairings_.size());
   report.update_ok = ekf_.update(pairings_, model_, &report.nis);
+  counters_.clamped_corrections = ekf_.correctionClamps();
+  counters_.refused_correction_updates = ekf_.correctionRefusals();
   if (!report.update_ok) {
     ++counters_.rejected_updates;
     report.nis = 0.0;
@@ -485,12 +524,16 @@ void SlamPipeline::loadMap(const std::string& path, bool reset_pose) {
   applyPendingMotion();
   Eigen::Vector3d pose = ekf_.pose();
   Eigen::Matrix3d pose_cov = ekf_.poseCovariance();
+  // The correction estimates carry over (their variances; correlations with the old map go).
+  CorrectionPrior correction = correction_.prior();
+  correction.mean = ekf_.correction();
+  correction.sigma = ekf_.correctionCovariance().diagonal().cwiseSqrt();
   if (reset_pose) {
     const Eigen::Vector3d s = config_.initial_pose_sigma;
     pose = config_.initial_pose;
     pose_cov = s.cwiseProduct(s).asDiagonal();
   }
-  ekf_.reset(pose, pose_cov);
+  ekf_.reset(pose, pose_cov, correction);
   info_.clear();
   for (const MapEntry& e : entries) {
     ekf_.insertLandmark(e.position, e.cov, e.id);

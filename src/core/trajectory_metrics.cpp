@@ -113,4 +113,71 @@ TrajectoryError compareTrajectories(std::vector<StampedPoint> estimate,
   return out;
 }
 
+namespace {
+
+// Path length travelled from the first odometry stamp up to each GPS stamp (sorted), from the
+// held speeds.
+std::vector<double> pathLengthAt(const std::vector<StampedPoint>& gps,
+                                 const std::vector<StampedSpeed>& odometry) {
+  std::vector<double> out(gps.size(), 0.0);
+  if (odometry.empty()) return out;
+  std::size_t k = 0;     // odometry sample in force
+  double travelled = 0;  // up to odometry[k].stamp
+  for (std::size_t i = 0; i < gps.size(); ++i) {
+    const double t = gps[i].stamp;
+    while (k + 1 < odometry.size() && odometry[k + 1].stamp <= t) {
+      travelled += std::abs(odometry[k].speed) * (odometry[k + 1].stamp - odometry[k].stamp);
+      ++k;
+    }
+    const double dt = std::max(0.0, t - odometry[k].stamp);
+    // Beyond the last sample its speed is held; before the first the vehicle is taken as moving
+    // at the first speed (both only matter at the very ends of a bag).
+    const double before = t < odometry.front().stamp
+                              ? std::abs(odometry.front().speed) * (odometry.front().stamp - t)
+                              : 0.0;
+    out[i] = travelled + std::abs(odometry[k].speed) * dt - before;
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<bool> faultyGpsFixes(const std::vector<StampedPoint>& gps,
+                                 const std::vector<StampedSpeed>& odometry,
+                                 const GpsFaultOptions& options) {
+  std::vector<bool> faulty(gps.size(), false);
+  if (gps.size() < 3) return faulty;
+  const std::vector<double> path = pathLengthAt(gps, odometry);
+  const auto consistent = [&](std::size_t a, std::size_t b) {
+    const double d = std::abs(path[b] - path[a]);
+    return (gps[b].position - gps[a].position).norm() <=
+           (1.0 + options.path_tolerance) * d + options.distance_tolerance;
+  };
+  std::size_t good = 0;
+  for (std::size_t i = 1; i < gps.size(); ++i) {
+    if (consistent(good, i)) {
+      good = i;
+      continue;
+    }
+    // A jump: faulty if the track comes back within max_run fixes.
+    std::size_t back = 0;
+    for (std::size_t j = i + 1; j < gps.size() && j < i + options.max_run + 1; ++j) {
+      if (consistent(good, j)) {
+        back = j;
+        break;
+      }
+    }
+    // No way back, or the track after the return agrees with the jumped fix (the tolerance
+    // merely caught up with a lasting shift): a lasting jump, not judged.
+    if (back == 0 || consistent(i, back)) {
+      good = i;
+      continue;
+    }
+    for (std::size_t j = i; j < back; ++j) faulty[j] = true;
+    good = back;
+    i = back;
+  }
+  return faulty;
+}
+
 }  // namespace ekf_slam

@@ -10,6 +10,7 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <std_msgs/Float64MultiArray.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include "ekf_slam/AssociationStats.h"
@@ -109,6 +110,7 @@ EkfSlamNode::EkfSlamNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("landmarks", 1, true);
   map_pub_ = pnh_.advertise<LandmarkArray>("map", 1, true);
   associations_pub_ = pnh_.advertise<AssociationStats>("associations", 100);
+  correction_pub_ = pnh_.advertise<std_msgs::Float64MultiArray>("odometry_correction", 10);
 
   reset_srv_ = pnh_.advertiseService("reset", &EkfSlamNode::resetService, this);
   save_srv_ = pnh_.advertiseService("save_map", &EkfSlamNode::saveMapService, this);
@@ -534,6 +536,24 @@ void EkfSlamNode::publish(const ScanReport& report) {
   }
   // Latched: a late subscriber (rviz started mid-run) must get today's map, not none.
   map_pub_.publish(toLandmarkArray(*pipeline_, config_.map_frame, stamp));
+  const std::vector<std::string> names = pipeline_->odometryCorrection().names();
+  if (!names.empty() && correction_pub_.getNumSubscribers() > 0) {
+    // Odometry correction states (AEKF): [estimates..., std devs...]; the layout names them.
+    std_msgs::Float64MultiArray msg;
+    msg.layout.dim.resize(2);
+    msg.layout.dim[0].label = "estimate,sd";
+    msg.layout.dim[0].size = 2;
+    msg.layout.dim[0].stride = 2 * names.size();
+    msg.layout.dim[1].size = names.size();
+    msg.layout.dim[1].stride = names.size();
+    for (const std::string& n : names)
+      msg.layout.dim[1].label += (msg.layout.dim[1].label.empty() ? "" : ",") + n;
+    const EkfSlam& ekf = pipeline_->ekf();
+    const Eigen::Vector2d sd = ekf.correctionCovariance().diagonal().cwiseSqrt();
+    for (std::size_t i = 0; i < names.size(); ++i) msg.data.push_back(ekf.correction()(i));
+    for (std::size_t i = 0; i < names.size(); ++i) msg.data.push_back(sd(i));
+    correction_pub_.publish(msg);
+  }
 
   if (config_.publish_tf) {
     map_base_ = pose;

@@ -51,6 +51,7 @@ YamlParameterSource pipelineSource(const EvaluateOptions& o, const sim::World& w
   for (const auto& [name, value] : sim::pipelineParametersFor(w)) {
     if (!p.contains(name)) p.set(name, value);
   }
+  if (!o.odometry_correction.empty()) p.set("odometry_correction", o.odometry_correction);
   for (const auto& [name, value] : o.overrides) {
     if (name.find('/') == std::string::npos) p.set(name, value);
   }
@@ -142,6 +143,33 @@ double meanOver(const MonteCarloNees& mc) {
   return n > 0 ? sum / static_cast<double>(n) : std::numeric_limits<double>::quiet_NaN();
 }
 
+// The final correction estimates over the runs (mean ± sd of the estimates, mean of their
+// reported std devs) and how many runs end within 2 reported std devs of the world's truth.
+std::string correctionSummary(const std::vector<const EvaluationRow*>& rows, const sim::World& w) {
+  if (rows.empty() || rows.front()->metrics.correction_names.empty()) return "none";
+  const std::vector<std::string>& names = rows.front()->metrics.correction_names;
+  const std::string mode = rows.front()->odometry_correction;
+  const Eigen::Vector2d truth = sim::trueCorrection(w, mode);
+  std::string out;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    std::vector<double> est, sd;
+    int within = 0;
+    for (const EvaluationRow* r : rows) {
+      est.push_back(r->metrics.correction(i));
+      sd.push_back(r->metrics.correction_sigma(i));
+      within +=
+          std::abs(r->metrics.correction(i) - truth(i)) <= 2.0 * r->metrics.correction_sigma(i);
+    }
+    out += (i ? "; " : "") + names[i] + " " + format(spread(est), 4) + " (sd " +
+           format(spread(sd).mean, 4) + ")";
+    if (std::isfinite(truth(i))) {
+      out += ", truth " + format(truth(i), 4) + ": " + std::to_string(within) + "/" +
+             std::to_string(rows.size());
+    }
+  }
+  return out;
+}
+
 // Rows of one world and associator, in run order.
 std::vector<const EvaluationRow*> select(const Evaluation& e, const std::string& world,
                                          const std::string& associator) {
@@ -152,11 +180,21 @@ std::vector<const EvaluationRow*> select(const Evaluation& e, const std::string&
   return out;
 }
 
+// "truth": the true associations (KnownAssociation), not a plugin.
+bool isTruth(const std::string& name) { return name == "truth"; }
+
 std::vector<std::string> associatorShortNames(const EvaluateOptions& o) {
   std::vector<std::string> out;
   for (const std::string& a : o.associators)
-    out.push_back(shortName(AssociatorLoader::lookupName(a)));
+    out.push_back(isTruth(a) ? a : shortName(AssociatorLoader::lookupName(a)));
   return out;
+}
+
+std::shared_ptr<DataAssociation> createAssociator(const AssociatorLoader& loader,
+                                                  const std::string& name,
+                                                  const ParameterSource& params) {
+  if (isTruth(name)) return std::make_shared<KnownAssociation>();
+  return loader.create(name, params);
 }
 
 }  // namespace
@@ -208,7 +246,7 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
     for (std::size_t a = 0; a < o.associators.size(); ++a) {
       RunSetup s{w, config, associatorSource(o, w, shorts[a])};
       const RecordingParameterSource params(s.associator_params, s.associator_params.names());
-      loader.create(o.associators[a], params);  // validates name and parameters
+      createAssociator(loader, o.associators[a], params);  // validates name and parameters
       params.rejectUnread();
       setups.push_back(std::move(s));
     }
@@ -222,6 +260,7 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
       row.associator = shorts[s % shorts.size()];
       row.run = r;
       row.seed = first + static_cast<std::uint64_t>(r);
+      row.odometry_correction = setups[s].config.correction.mode;
       e.rows.push_back(std::move(row));
     }
   }
@@ -245,10 +284,11 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
         {
           std::lock_guard<std::mutex> lock(mutex);
           if (!error.empty()) return;
-          associator = loader.create(o.associators[(i / runs_per_setup) % shorts.size()],
-                                     setup.associator_params);
+          associator = createAssociator(loader, o.associators[(i / runs_per_setup) % shorts.size()],
+                                        setup.associator_params);
         }
-        row.metrics = runSimulation(setup.world, row.seed, setup.config, associator, &row.nees);
+        row.metrics =
+            runSimulation(setup.world, row.seed, setup.config, associator, &row.nees, &row.errors);
       } catch (const std::exception& ex) {
         std::lock_guard<std::mutex> lock(mutex);
         if (error.empty()) {
@@ -300,8 +340,9 @@ std::string summaryMarkdown(const Evaluation& e, const std::string& command) {
     md << "\n## " << world << "\n\n"
        << w.description << (stop ? " " : ". ") << "Seeds " << lo << ".." << hi << ".\n\n";
     md << "| associator | accuracy | precision | recall | F1 | landmarks | spurious | spurious % | "
-          "true seen | pose RMSE [m] | ANEES | in band | association [us/scan] | run [s] |\n";
-    md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+          "true seen | pose RMSE [m] | ANEES | in band | association [us/scan] | run [s] | "
+          "odometry correction (final; runs within 2 sd of the truth) |\n";
+    md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const std::string& a : shorts) {
       const auto rows = select(e, world, a);
       if (rows.empty()) continue;
@@ -329,7 +370,7 @@ std::string summaryMarkdown(const Evaluation& e, const std::string& command) {
          << format(spread(rmse), 3) << " | " << format(meanOver(mc), 2) << " ["
          << format(band.lower, 2) << ", " << format(band.upper, 2) << "] | "
          << format(100.0 * mc.fractionInBand(), 0) << " % | " << format(spread(us), 1) << " | "
-         << format(spread(wall).mean, 2) << " |\n";
+         << format(spread(wall).mean, 2) << " | " << correctionSummary(rows, w) << " |\n";
     }
   }
   return md.str();
@@ -343,7 +384,9 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
     csv << "world,associator,run,seed,accuracy,precision,recall,f1,tp,fp,fn,tn,landmarks,"
            "true_landmarks_seen,true_landmarks_mapped,spurious_landmarks,non_landmarks,"
            "duplicates,pose_rmse_m,heading_rmse_rad,anees,association_us_mean,update_us_mean,"
-           "scans,observations,rejected_updates,identity_switches,wall_time_s\n";
+           "scans,observations,rejected_updates,identity_switches,wall_time_s,"
+           "odometry_correction,correction_1_name,correction_1,correction_1_sd,correction_1_true,"
+           "correction_2_name,correction_2,correction_2_sd,correction_2_true\n";
     for (const EvaluationRow& r : e.rows) {
       const RunMetrics& m = r.metrics;
       csv << r.world << ',' << r.associator << ',' << r.run << ',' << r.seed << ','
@@ -354,21 +397,46 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
           << ',' << m.map.duplicates << ',' << m.pose_rmse_m << ',' << m.heading_rmse_rad << ','
           << m.anees << ',' << m.association_us_mean << ',' << m.update_us_mean << ',' << m.scans
           << ',' << m.observations << ',' << m.rejected_updates << ',' << m.identity_switches << ','
-          << m.wall_time_s << '\n';
+          << m.wall_time_s << ',' << r.odometry_correction;
+      // The final correction estimates, std devs and the world's true values (empty when the
+      // mode has fewer states or the world no exact counterpart).
+      const Eigen::Vector2d truth =
+          sim::trueCorrection(sim::makeWorld(r.world), r.odometry_correction);
+      for (std::size_t i = 0; i < 2; ++i) {
+        if (i < m.correction_names.size()) {
+          csv << ',' << m.correction_names[i] << ',' << m.correction(i) << ','
+              << m.correction_sigma(i) << ',';
+          if (std::isfinite(truth(i))) csv << truth(i);
+        } else {
+          csv << ",,,,";
+        }
+      }
+      csv << '\n';
     }
   }
   {
     std::ofstream csv = openOutput(dir + "/nees.csv");
-    csv << "world,associator,scan,anees,runs,band_lower,band_upper\n";
+    csv << "world,associator,scan,anees,runs,band_lower,band_upper,position_rmse_m,"
+           "heading_rmse_rad\n";
     for (const std::string& world : e.worlds) {
       const sim::World w = sim::makeWorld(world);
       for (const std::string& a : associatorShortNames(e.options)) {
-        const MonteCarloNees mc = monteCarloNees(select(e, world, a), neesSkipScans(w));
+        const std::vector<const EvaluationRow*> rows = select(e, world, a);
+        const MonteCarloNees mc = monteCarloNees(rows, neesSkipScans(w));
         for (std::size_t k = 0; k < mc.scans(); ++k) {
           if (mc.runs(k) == 0) continue;
           const NeesBand b = neesBand(mc.runs(k));
+          // Monte Carlo RMSE of the position and heading at this scan, over the runs.
+          Eigen::Vector2d sum2 = Eigen::Vector2d::Zero();
+          int n = 0;
+          for (const EvaluationRow* r : rows) {
+            if (k >= r->errors.size() || !r->errors[k].allFinite()) continue;
+            sum2 += r->errors[k].cwiseAbs2();
+            ++n;
+          }
+          const Eigen::Vector2d rmse = (sum2 / std::max(n, 1)).cwiseSqrt();
           csv << world << ',' << a << ',' << k << ',' << mc.average(k) << ',' << mc.runs(k) << ','
-              << b.lower << ',' << b.upper << '\n';
+              << b.lower << ',' << b.upper << ',' << rmse(0) << ',' << rmse(1) << '\n';
         }
       }
     }
@@ -381,18 +449,22 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
 void printEvaluateUsage(std::ostream& out) {
   out << "usage: evaluate --world NAME[,NAME...] --out DIR [--runs N] [--associators A,B,...]\n"
          "                [--seed FIRST] [--params YAML] [--set NAME=VALUE ...] [--jobs N]\n"
-         "                [--no-progress]\n"
+         "                [--odometry-correction MODE] [--no-progress]\n"
          "Runs each associator on the same simulated seeds and scores it against the truth:\n"
          "DIR/results.csv (a row per run), DIR/nees.csv, DIR/summary.md.\n"
          "  NAME       a world (simulate --list), or a prefix with '*' (e.g. 'rrw_noise_*')\n"
          "  --runs     Monte Carlo runs per world and associator (default 20)\n"
-         "  --associators  plugin names (default ekf_slam/NN,ekf_slam/JCBB,ekf_slam/DJNN)\n"
+         "  --associators  plugin names (default ekf_slam/NN,ekf_slam/JCBB,ekf_slam/DJNN);\n"
+         "             'truth' = the true associations (isolates the filter)\n"
          "  --seed     seed of the first run (default: the world's default seed)\n"
          "  --params   YAML, pipeline parameters at the top level and each associator's under\n"
          "             its name; overrides the world's settings\n"
          "  --set      NAME=VALUE (pipeline), DJNN/NAME=VALUE (one associator),\n"
          "             '*/NAME=VALUE' (every associator); applied last\n"
-         "  --jobs     parallel runs (default: the number of cores)\n";
+         "  --jobs     parallel runs (default: the number of cores)\n"
+         "  --odometry-correction  none, speed_scale, speed_scale_yaw_bias or wheel_factors\n"
+         "             (the pipeline's odometry_correction; results.csv gets the final\n"
+         "             estimates, their std devs and the world's true values)\n";
 }
 
 bool parseEvaluateArguments(const std::vector<std::string>& args, EvaluateOptions* o, bool* help,
@@ -422,8 +494,8 @@ bool parseEvaluateArguments(const std::vector<std::string>& args, EvaluateOption
       continue;
     }
     static const std::vector<std::string> with_value = {
-        "--world",      "--worlds", "--out",    "--runs", "--associators",
-        "--associator", "--seed",   "--params", "--set",  "--jobs"};
+        "--world", "--worlds", "--out", "--runs", "--associators",        "--associator",
+        "--seed",  "--params", "--set", "--jobs", "--odometry-correction"};
     if (std::find(with_value.begin(), with_value.end(), a) == with_value.end()) {
       *error = "unknown argument '" + a + "'";
       return false;
@@ -442,6 +514,8 @@ bool parseEvaluateArguments(const std::vector<std::string>& args, EvaluateOption
       o->associators = splitList(v);
     } else if (a == "--params") {
       o->params_path = v;
+    } else if (a == "--odometry-correction") {
+      o->odometry_correction = v;
     } else if (a == "--runs") {
       if (!number(a, v, 1, &n)) return false;
       o->runs = static_cast<int>(n);

@@ -250,7 +250,9 @@ bool truePoseAt(const std::vector<std::pair<double, Eigen::Vector3d>>& track, do
 struct PoseRow {
   double stamp;
   Eigen::Vector3d pose;
-  Eigen::Vector3d variance;  // diagonal of the pose covariance
+  Eigen::Vector3d variance;    // diagonal of the pose covariance
+  Eigen::Vector2d correction;  // odometry correction estimates (first correctionDim() used)
+  Eigen::Vector2d correction_sd;
 };
 // One associations.csv row.
 struct AssociationRow {
@@ -400,7 +402,9 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     update_us.push_back(1e6 * r.update_s);
     const Eigen::Vector3d x = pipeline.pose();
     const Eigen::Matrix3d P = pipeline.poseCovariance();
-    poses.push_back({r.stamp, x, P.diagonal()});
+    const EkfSlam& filter = pipeline.ekf();  // current after a scan (nothing pending)
+    poses.push_back({r.stamp, x, P.diagonal(), filter.correction(),
+                     filter.correctionCovariance().diagonal().cwiseSqrt()});
     laser_track.push_back({r.stamp, pipeline.observationModel().sensorPose(x).head<2>()});
     truth.clear();
     for (std::size_t i = 0; i < r.observations.size(); ++i) {
@@ -500,10 +504,17 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   const auto t_write = Clock::now();
   {
     std::ofstream traj = openOutput(o.out_dir + "/trajectory.csv");
-    traj << "stamp,x,y,yaw,var_x,var_y,var_yaw\n";
+    // Odometry correction states (AEKF), when configured: estimate and std dev columns.
+    const std::vector<std::string> names = pipeline.odometryCorrection().names();
+    traj << "stamp,x,y,yaw,var_x,var_y,var_yaw";
+    for (const std::string& n : names) traj << ',' << n << ',' << n << "_sd";
+    traj << '\n';
     for (const PoseRow& p : poses) {
       traj << p.stamp << ',' << p.pose.x() << ',' << p.pose.y() << ',' << p.pose.z() << ','
-           << p.variance.x() << ',' << p.variance.y() << ',' << p.variance.z() << '\n';
+           << p.variance.x() << ',' << p.variance.y() << ',' << p.variance.z();
+      for (std::size_t i = 0; i < names.size(); ++i)
+        traj << ',' << p.correction(i) << ',' << p.correction_sd(i);
+      traj << '\n';
     }
     std::ofstream assoc = openOutput(o.out_dir + "/associations.csv");
     assoc << "scan,stamp,obs,range,bearing,diameter,decision,landmark_id"
@@ -549,17 +560,34 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   }
 
   // --- GPS -------------------------------------------------------------------------------------
-  TrajectoryError gps_error;
+  TrajectoryError gps_error, gps_clean_error;
+  std::vector<bool> gps_faulty;
   if (!bag.gps.empty()) {
     gps_error = compareTrajectories(laser_track, bag.gps);
+    // The same without the fixes the GPS track itself shows faulty (judged from the GPS and the
+    // odometry only: trajectory_metrics.h, faultyGpsFixes).
+    std::vector<StampedPoint> gps = bag.gps;
+    std::vector<StampedSpeed> speeds;
+    speeds.reserve(bag.odometry.size());
+    for (const OdometryInput& od : bag.odometry) speeds.push_back({od.stamp, od.twist(0)});
+    std::sort(gps.begin(), gps.end(),
+              [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
+    std::sort(speeds.begin(), speeds.end(),
+              [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
+    gps_faulty = faultyGpsFixes(gps, speeds);
+    std::vector<StampedPoint> clean;
+    for (std::size_t i = 0; i < gps.size(); ++i)
+      if (!gps_faulty[i]) clean.push_back(gps[i]);
+    gps_clean_error = compareTrajectories(laser_track, clean);
     // The fixes also in the map frame (inverse alignment), so the picture overlays them.
     const Eigen::Matrix2d Rt = gps_error.alignment.rotation().transpose();
     std::ofstream g = openOutput(o.out_dir + "/gps.csv");
-    g << "stamp,x,y,x_map,y_map\n";
-    for (const auto& f : bag.gps) {
+    g << "stamp,x,y,x_map,y_map,faulty\n";
+    for (std::size_t i = 0; i < gps.size(); ++i) {
+      const StampedPoint& f = gps[i];
       const Eigen::Vector2d m = Rt * (f.position - gps_error.alignment.translation);
       g << f.stamp << ',' << f.position.x() << ',' << f.position.y() << ',' << m.x() << ',' << m.y()
-        << '\n';
+        << ',' << (gps_faulty[i] ? 1 : 0) << '\n';
     }
   }
 
@@ -584,8 +612,23 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   j["sensor_offset"] = {offset.x(), offset.y(), offset.z()};
   const Eigen::Vector3d final_pose = ekf.pose();
   j["final_pose"] = {final_pose.x(), final_pose.y(), final_pose.z()};
+  {
+    // Final odometry correction estimates and std devs, by name (empty for mode none).
+    nlohmann::json c = {{"mode", pipeline.odometryCorrection().params().mode}};
+    const std::vector<std::string> names = pipeline.odometryCorrection().names();
+    const Eigen::Vector2d sd = ekf.correctionCovariance().diagonal().cwiseSqrt();
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      c[names[i]] = number(ekf.correction()(i));
+      c[names[i] + "_sd"] = number(sd(i));
+    }
+    j["odometry_correction"] = c;
+  }
   if (!bag.gps.empty()) {
     j["gps_rmse_m"] = number(gps_error.rmse_aligned);
+    j["gps_rmse_clean_m"] = number(gps_clean_error.rmse_aligned);
+    j["gps_faulty_fixes"] = std::count(gps_faulty.begin(), gps_faulty.end(), true);
+    j["gps_median_error_clean_m"] = number(gps_clean_error.median_aligned);
+    j["gps_p95_error_clean_m"] = number(gps_clean_error.p95_aligned);
     j["gps_rmse_unaligned_m"] = number(gps_error.rmse_unaligned);
     j["gps_max_error_m"] = number(gps_error.max_aligned);
     j["gps_median_error_m"] = number(gps_error.median_aligned);
@@ -609,6 +652,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                    {"invalid_observations", k.invalid_observations},
                    {"invalid_associations", k.invalid_associations},
                    {"failed_initialisations", k.failed_initialisations},
+                   {"clamped_corrections", k.clamped_corrections},
+                   {"refused_correction_updates", k.refused_correction_updates},
                    {"sequencer_late_odometry", sequencer.counters().late_odometry},
                    {"sequencer_late_scans", sequencer.counters().late_scans},
                    {"released_by_latency", sequencer.counters().released_by_latency},
@@ -650,7 +695,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   const std::uint64_t out_of_range = sequencer.counters().dropped_out_of_range;
   if (k.rejected_odometry || k.rejected_updates || late || k.odometry_gaps || invalid_stamps ||
       k.invalid_observations || k.invalid_associations || k.failed_initialisations ||
-      out_of_range || k.invalid_ranges || k.empty_scans || time_jumps) {
+      out_of_range || k.invalid_ranges || k.empty_scans || time_jumps || k.clamped_corrections) {
     log << "warning: " << k.rejected_odometry << " odometry messages rejected (non-finite), "
         << invalid_stamps << " messages with invalid stamps dropped, " << out_of_range
         << " messages dropped (stamp out of range of the other input), " << time_jumps
@@ -659,8 +704,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
         << k.late_scans << " late scans, " << k.odometry_gaps << " odometry gaps, "
         << k.rejected_updates << " EKF updates refused, " << k.invalid_observations
         << " invalid observations, " << k.invalid_associations << " associator results fixed, "
-        << k.failed_initialisations
-        << " failed landmark initialisations (metrics.json: counters)\n";
+        << k.failed_initialisations << " failed landmark initialisations, " << k.clamped_corrections
+        << " odometry corrections clamped to their bounds (metrics.json: counters)\n";
   }
 
   // --- picture ---------------------------------------------------------------------------------

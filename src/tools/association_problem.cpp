@@ -240,8 +240,16 @@ void writeAssociationProblem(const AssociationProblem& problem, const std::strin
 AssociationProblem makeAssociationProblem(const EkfSlam& ekf, const RangeBearingModel& model,
                                           const std::vector<Observation>& observations) {
   AssociationProblem p;
-  p.state = ekf.mean();
-  p.covariance = ekf.covariance();
+  // The file holds pose and landmarks only (3 + 2n): odometry correction states (rows 3..3+k)
+  // play no part in association, so they are marginalised out (dropped).
+  const Eigen::Index k = ekf.correctionDim();
+  const Eigen::Index n = ekf.mean().size() - 3 - k;
+  p.state.resize(3 + n);
+  p.state << ekf.mean().head(3), ekf.mean().tail(n);
+  p.covariance.resize(3 + n, 3 + n);
+  const Eigen::MatrixXd& P = ekf.covariance();
+  p.covariance << P.topLeftCorner(3, 3), P.topRightCorner(3, n), P.bottomLeftCorner(n, 3),
+      P.bottomRightCorner(n, n);
   p.sensor_offset = model.sensorOffset();
   if (!observations.empty()) p.R = observations.front().R;
   for (const auto& o : observations) {

@@ -12,11 +12,18 @@
 namespace ekf_slam {
 
 /// Result of one prediction step: the new pose, its Jacobian w.r.t. the old pose and the process
-/// noise in pose space.
+/// noise in pose space. With odometry correction states (AEKF, odometry_correction.h) the step
+/// also carries the pose's Jacobian w.r.t. those states, the states' random walk and the
+/// cross-covariance of the two noises (non-zero once steps are composed); the states themselves
+/// do not change in a prediction.
 struct MotionStep {
   Eigen::Vector3d pose;
   Eigen::Matrix3d F;
   Eigen::Matrix3d Q;
+  int corrections = 0;  ///< number of correction states (0: the plain EKF; the rest is unused)
+  Eigen::Matrix<double, 3, 2> Fc = Eigen::Matrix<double, 3, 2>::Zero();   ///< d pose / d c
+  Eigen::Matrix<double, 3, 2> Qvc = Eigen::Matrix<double, 3, 2>::Zero();  ///< cov(pose, c) noise
+  Eigen::Matrix2d Qc = Eigen::Matrix2d::Zero();                           ///< random walk of c
 };
 
 /// Victoria Park Ackermann vehicle (ALGORITHMS.md section 1; seed 000 eq. 13-14). The tracked
@@ -73,7 +80,9 @@ class TwistModel {
   Eigen::Vector3d predict(const Eigen::Vector3d& x, const Input& u, double dt,
                           Eigen::Matrix3d* F = nullptr,
                           Eigen::Matrix<double, 3, 2>* G = nullptr) const;
-  MotionStep step(const Eigen::Vector3d& x, const Input& u, double dt) const;
+  /// predict() plus Q; optionally returns G = d pose / d u (for the correction states' chain).
+  MotionStep step(const Eigen::Vector3d& x, const Input& u, double dt,
+                  Eigen::Matrix<double, 3, 2>* G_out = nullptr) const;
 
  private:
   TwistParams p_;

@@ -50,6 +50,10 @@ class ParameterError : public std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
 
+/// Cross-field checks after reading: throws ParameterError "parameter NAME: WHAT, got VALUE"
+/// unless `ok`.
+void requireParameter(bool ok, const std::string& name, const std::string& what, double value);
+
 /// Reads parameters with defaults and range checks, so each algorithm's configure() is a list of
 /// one-liners:  gate_ = reader.positive("gate", 5.99);
 class ParameterReader {

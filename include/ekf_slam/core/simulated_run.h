@@ -67,6 +67,29 @@ struct RunMetrics {
   double update_us_mean = 0.0;         ///< EKF update + initialisation + removal per scan [us]
   double wall_time_s = 0.0;            ///< the whole run (runSimulation) or the loop (offline)
   std::uint64_t rejected_updates = 0;  ///< EKF refused a batch update (PipelineCounters)
+  /// Final odometry correction estimates (AEKF) and their std devs, one per name (none: empty).
+  std::vector<std::string> correction_names;
+  Eigen::Vector2d correction = Eigen::Vector2d::Zero();
+  Eigen::Vector2d correction_sigma = Eigen::Vector2d::Zero();
+};
+
+/// The true associations, for simulated runs (evaluation side, not an estimator): pairs each
+/// observation with the map landmark created from the same truth id, initialises unseen static
+/// landmarks, rejects movers and clutter. runSimulation hands it the truth ids of every set
+/// before the pipeline associates it. What isolates the filter from the association (e.g. the
+/// consistency of AEKF against EKF, docs/results.md); `evaluate --associators truth`.
+class KnownAssociation : public DataAssociation {
+ public:
+  void configure(const ParameterSource&) override {}
+  std::string name() const override { return "truth"; }
+  void setTruth(std::vector<LandmarkId> truth) { truth_ = std::move(truth); }
+  AssociationResult associate(const AssociationContext& context) override;
+  void landmarkAdded(int obs, LandmarkId id) override;
+  void reset() override { landmark_of_.clear(); }
+
+ private:
+  std::vector<LandmarkId> truth_;                 // of the observations being associated
+  std::map<LandmarkId, LandmarkId> landmark_of_;  // truth id -> map landmark id
 };
 
 /// Scores a run scan by scan: the association against the observations' truth ids, the pose
@@ -89,6 +112,8 @@ class RunScorer {
   RunMetrics metrics(const SlamPipeline* pipeline) const;
   /// NEES per scored scan, in order (NaN where invalid or without truth): for Monte Carlo ANEES.
   const std::vector<double>& neesPerScan() const { return nees_; }
+  /// Position error [m] and absolute heading error [rad] per scored scan (NaN without truth).
+  const std::vector<Eigen::Vector2d>& errorsPerScan() const { return errors_; }
   const AssociationScorer& scorer() const { return scorer_; }
 
  private:
@@ -101,13 +126,16 @@ class RunScorer {
   std::uint64_t nees_n_ = 0, scans_ = 0, observations_ = 0;
   double association_s_ = 0.0, update_s_ = 0.0;
   std::vector<double> nees_;
+  std::vector<Eigen::Vector2d> errors_;
 };
 
 /// Runs world + seed through a fresh SlamPipeline with `associator` (configured already; it is
-/// reset first) and scores it. Stamps carry sim::kStampOffset. `nees_per_scan`, when given,
-/// receives RunScorer::neesPerScan(). Throws what SlamPipeline and Simulation throw.
+/// reset first) and scores it. Stamps carry sim::kStampOffset. `nees_per_scan` and
+/// `errors_per_scan`, when given, receive RunScorer::neesPerScan() and errorsPerScan(). Throws
+/// what SlamPipeline and Simulation throw.
 RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const PipelineConfig& config,
                          std::shared_ptr<DataAssociation> associator,
-                         std::vector<double>* nees_per_scan = nullptr);
+                         std::vector<double>* nees_per_scan = nullptr,
+                         std::vector<Eigen::Vector2d>* errors_per_scan = nullptr);
 
 }  // namespace ekf_slam

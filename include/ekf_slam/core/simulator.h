@@ -72,6 +72,9 @@ struct VehicleSpec {
   double max_steer = 30.0 * M_PI / 180;       ///< steering angle limit [rad]
   double max_steer_rate = 20.0 * M_PI / 180;  ///< steering rate limit [rad/s]
   double waypoint_tolerance = 2.0;            ///< a waypoint is reached within this distance [m]
+  /// Distance between the left and right wheels whose encoders give the odometry when
+  /// NoiseSpec::odometry_wheel_factors is not (1, 1) [m].
+  double track_width = 2.0;
 };
 
 struct SensorSpec {
@@ -94,6 +97,12 @@ struct NoiseSpec {
   /// steering = true steering + bias (+ noise).
   double odometry_speed_scale = 1.0;
   double odometry_steer_bias = 0.0;
+  /// Wheel-speed factors (d_l, d_r) of AEKF (seed 001 paper 5): the wheels really turn d times
+  /// as fast as their encoders report. The odometry is then the differential-drive twist of the
+  /// reported wheel speeds v_l,r / d_l,r (wheels at -/+ track_width / 2 of the true twist), so
+  /// unequal factors bias the yaw rate as well as the speed; the random noise is added on top,
+  /// as without factors (speed, and steering equivalent to that yaw rate).
+  Eigen::Vector2d odometry_wheel_factors = Eigen::Vector2d::Ones();
 };
 
 /// Objects that move at random and are seen by the sensor like landmarks (seed 000).
@@ -159,6 +168,16 @@ World makeWorld(const std::string& name);
 /// little conservative on straights). Systematic errors (speed scale, steering bias) are not
 /// covered: estimating them is AEKF's job. What a filter on a simulated bag should use.
 TwistParams twistNoiseFor(const World& world);
+
+/// Speed and steering angle the odometry reports for the true steering angle `steer` at the
+/// world's speed, before the random noise: the systematic errors of NoiseSpec alone.
+Eigen::Vector2d biasedOdometry(const World& world, double steer);
+
+/// The values the filter's odometry correction states should converge to in `world` for a
+/// correction mode (odometry_correction.h): wheel_factors -> (d_l, d_r); speed_scale ->
+/// 1 / odometry_speed_scale when the wheel factors are 1. NaN where the world's systematic error
+/// has no exact counterpart in that mode (or the mode has fewer states).
+Eigen::Vector2d trueCorrection(const World& world, const std::string& mode);
 
 // --- simulation ---------------------------------------------------------------------------------
 

@@ -5,7 +5,8 @@
 // the exact stamp of each scan before using it.
 //
 // Prediction is lazy: the motion steps of the odometry messages between two scans are composed
-// into one MotionStep (F = F2 F1, Q = F2 Q1 F2^T + Q2, exact) and applied to the EKF once, right
+// into one MotionStep (F = F2 F1, Q = F2 Q1 F2^T + Q2, exact; with odometry correction states
+// their Jacobians and noise compose along, see compose()) and applied to the EKF once, right
 // before the scan is associated. Per-message work is O(1) and allocation-free; the O(n) EKF
 // prediction runs once per scan. pose() / poseCovariance() include the pending motion; ekf()
 // applies it first (so it is always current).
@@ -38,6 +39,7 @@
 #include "ekf_slam/core/landmark_index.h"
 #include "ekf_slam/core/motion_models.h"
 #include "ekf_slam/core/observation_model.h"
+#include "ekf_slam/core/odometry_correction.h"
 #include "ekf_slam/core/tree_extractor.h"
 
 namespace ekf_slam {
@@ -53,6 +55,8 @@ struct PipelineConfig {
   std::string mode = "slam";
   TwistParams twist;
   PoseDeltaParams pose_delta;
+  /// Odometry correction states in the filter (AEKF; twist mode only): odometry_correction.h.
+  OdometryCorrectionParams correction;
 
   double sigma_range = 0.5;                   ///< default observation noise [m]
   double sigma_bearing = 1.0 * M_PI / 180.0;  ///< [rad]
@@ -131,6 +135,11 @@ struct PipelineCounters {
   /// Localization mode: new landmarks and removals the associator asked for, not applied.
   std::uint64_t frozen_new = 0;
   std::uint64_t frozen_removals = 0;
+  /// Odometry correction states pushed past their bounds by an update (clamped back), and
+  /// updates refused because a correction variance would have become non-positive (these are
+  /// also in rejected_updates).
+  std::uint64_t clamped_corrections = 0;
+  std::uint64_t refused_correction_updates = 0;
 };
 
 class SlamPipeline {
@@ -170,6 +179,8 @@ class SlamPipeline {
   Eigen::Matrix3d poseCovariance() const;
   const DataAssociation& associator() const { return *associator_; }
   const RangeBearingModel& observationModel() const { return model_; }
+  /// The odometry correction model (mode none: no states). Its estimates: ekf().correction().
+  const OdometryCorrection& odometryCorrection() const { return correction_; }
   /// Bookkeeping of a landmark (a default LandmarkInfo for an unknown id).
   const LandmarkInfo& landmarkInfo(LandmarkId id) const;
   const PipelineCounters& counters() const { return counters_; }
@@ -217,6 +228,7 @@ class SlamPipeline {
   TreeExtractor extractor_;
   TwistModel twist_model_;
   PoseDeltaModel pose_delta_model_;
+  OdometryCorrection correction_;
   std::unordered_map<LandmarkId, LandmarkInfo> info_;
   PipelineCounters counters_;
   double time_ = std::numeric_limits<double>::quiet_NaN();

@@ -68,4 +68,31 @@ TrajectoryError compareTrajectories(std::vector<StampedPoint> estimate,
                                     const std::vector<StampedPoint>& reference,
                                     const TrajectoryErrorOptions& options = {});
 
+/// A speed at a time (odometry), for the path length between two stamps.
+struct StampedSpeed {
+  double stamp = 0.0;
+  double speed = 0.0;  ///< held until the next sample [m/s]
+};
+
+/// Faulty GPS fixes, decided from the GPS track and the odometry alone (never the estimate):
+/// the odometry bounds how far the vehicle can have moved between two fixes, its path length
+/// D = integral |v| dt (zero-order hold), so two fixes are consistent when
+///   |g_b - g_a| <= (1 + path_tolerance) D(t_a, t_b) + distance_tolerance.
+/// A run of at most max_run fixes is faulty when its first fix is inconsistent with the last good
+/// fix before it and with the first fix after it, while those two neighbours are consistent with
+/// each other: a jump out and back that no vehicle motion between its neighbours explains. A
+/// jump that persists longer is not judged (the track is accepted from there: without the
+/// estimate one cannot tell which side of it is right). The first fix is taken as good.
+struct GpsFaultOptions {
+  double distance_tolerance = 3.0;  ///< [m]: GPS noise and the odometry's resolution
+  double path_tolerance = 0.2;      ///< fraction of the path: odometry scale error
+  int max_run = 20;                 ///< longest excursion judged faulty [fixes]
+};
+
+/// One flag per fix of `gps` (sorted by stamp): true = faulty. `odometry` sorted by stamp; GPS
+/// stamps outside its span use the nearest speed.
+std::vector<bool> faultyGpsFixes(const std::vector<StampedPoint>& gps,
+                                 const std::vector<StampedSpeed>& odometry,
+                                 const GpsFaultOptions& options = {});
+
 }  // namespace ekf_slam

@@ -174,6 +174,7 @@ class EkfSlamNode {
 
   ros::Subscriber odom_sub_, scan_sub_, observations_sub_;
   ros::Publisher pose_pub_, path_pub_, markers_pub_, map_pub_, associations_pub_, diagnostics_pub_;
+  ros::Publisher correction_pub_;  // ~odometry_correction (AEKF states), when configured
   ros::ServiceServer reset_srv_, save_srv_, load_srv_;
   ros::WallTimer input_timer_, visualization_timer_, transform_timer_, diagnostics_timer_;
 

@@ -37,6 +37,8 @@ struct EvaluateOptions {
   /// DJNN), --set '*/NAME=VALUE' (every associator). Applied last.
   std::vector<std::pair<std::string, std::string>> overrides;
   int jobs = 0;  ///< worker threads; 0 = the number of cores
+  /// --odometry-correction MODE: the pipeline's odometry_correction (empty: the YAML's or none).
+  std::string odometry_correction;
   bool progress = true;
 };
 
@@ -46,8 +48,10 @@ struct EvaluationRow {
   std::string associator;  ///< short name, e.g. DJNN
   int run = 0;             ///< 0-based
   std::uint64_t seed = 0;
+  std::string odometry_correction = "none";  ///< the pipeline's mode for this run
   RunMetrics metrics;
-  std::vector<double> nees;  ///< per scan (RunScorer::neesPerScan)
+  std::vector<double> nees;             ///< per scan (RunScorer::neesPerScan)
+  std::vector<Eigen::Vector2d> errors;  ///< per scan (RunScorer::errorsPerScan)
 };
 
 struct Evaluation {

@@ -1,0 +1,211 @@
+// RRW&SC graph matching shared by the RRWSC associator and relocaliser; see the header.
+#include "ekf_slam/core/graph_matching/rrwsc_matcher.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace ekf_slam {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Variance of the distance between two points along their direction u.
+double distanceVariance(const Eigen::Vector2d& u, const Eigen::Matrix2d& a,
+                        const Eigen::Matrix2d& b) {
+  return u.dot((a + b) * u);
+}
+
+}  // namespace
+
+void setObservedPoints(const std::vector<Observation>& observations, MatchInput* in) {
+  in->observed.clear();
+  in->observed_cov.clear();
+  for (const Observation& o : observations) {
+    const double c = std::cos(o.z.y());
+    const double s = std::sin(o.z.y());
+    Eigen::Matrix2d g;
+    g << c, -o.z.x() * s, s, o.z.x() * c;
+    in->observed.emplace_back(o.z.x() * c, o.z.x() * s);
+    in->observed_cov.push_back(g * o.R * g.transpose());
+  }
+}
+
+void RrwscParams::read(const ParameterReader& reader, double position_weight_default) {
+  context.min_radius = reader.positive("context_min_radius", 2.0);
+  context.max_radius = reader.positive("context_max_radius", 100.0);
+  if (context.max_radius <= context.min_radius) {
+    reader.fail("context_max_radius", "must be > context_min_radius");
+  }
+  walk.alpha = reader.probability("alpha", 0.2);
+  walk.beta = reader.positive("beta", 30.0);
+  walk.max_iterations = reader.integer("max_iterations", 300, 1, 100000);
+  walk.tolerance = reader.positive("tolerance", 1e-12);
+  walk.sinkhorn_iterations = reader.integer("sinkhorn_iterations", 10, 1, 100000);
+  walk.sinkhorn_tolerance = reader.positive("sinkhorn_tolerance", 1e-3);
+  descriptor_scale = reader.positive("descriptor_scale", 0.2);
+  position_weight = reader.nonNegative("position_weight", position_weight_default);
+  edge_sigma = reader.positive("edge_sigma", 0.5);
+  edge_gate = reader.positive("edge_gate", 3.0);
+  candidates_per_observation = reader.integer("candidates_per_observation", 8, 1, 1000);
+  min_relative_score = reader.inRange("min_relative_score", 1e-3, 0.0, 1.0);
+}
+
+void RrwscMatcher::buildCandidates(const MatchInput& in, const RrwscParams& p) {
+  const int m = static_cast<int>(in.observed.size());
+  const int n = static_cast<int>(in.landmarks.size());
+  const bool prior = in.mahalanobis.rows() == m && in.mahalanobis.cols() == n && m > 0;
+  shapeContexts(in.observed, p.context, &obs_sc_);
+  shapeContexts(in.landmarks, p.context, &map_sc_);
+  node_.resize(m, n);
+  graph_.clear(m, n);
+  cand_begin_.assign(1, 0);
+  cand_node_.clear();
+  for (int i = 0; i < m; ++i) {
+    order_.clear();
+    int nearest = -1;
+    for (int j = 0; j < n; ++j) {
+      const double a = std::exp(-shapeContextDistance(obs_sc_[i], map_sc_[j]) / p.descriptor_scale);
+      node_(i, j) = a;
+      if (prior) {
+        const double mij = in.mahalanobis(i, j);
+        if (!(mij < kInf)) continue;
+        if (nearest < 0 || mij < in.mahalanobis(i, nearest)) nearest = j;
+        if (p.position_weight > 0.0) node_(i, j) *= std::exp(-0.5 * p.position_weight * mij);
+      }
+      order_.emplace_back(-a, j);  // closest descriptor first; ties by landmark index
+    }
+    const int k = std::min<int>(p.candidates_per_observation, static_cast<int>(order_.size()));
+    std::partial_sort(order_.begin(), order_.begin() + k, order_.end());
+    bool has_nearest = nearest < 0;
+    for (int c = 0; c < k; ++c) {
+      graph_.addCandidate(i, order_[c].second);
+      cand_node_.push_back(node_(i, order_[c].second));
+      has_nearest = has_nearest || order_[c].second == nearest;
+    }
+    // The prior's own best guess always takes part, however its descriptor scores.
+    if (!has_nearest) {
+      graph_.addCandidate(i, nearest);
+      cand_node_.push_back(node_(i, nearest));
+    }
+    cand_begin_.push_back(graph_.size());
+  }
+}
+
+void RrwscMatcher::buildAffinity(const MatchInput& in, const RrwscParams& p) {
+  const int m = static_cast<int>(in.observed.size());
+  const int n = static_cast<int>(in.landmarks.size());
+  const int n_cand = graph_.size();
+  const double floor_var = p.edge_sigma * p.edge_sigma;
+  const double gate2 = p.edge_gate * p.edge_gate;
+  // Pairwise distances and their variances along the pair's direction, once per pair of
+  // observations and per pair of landmarks that take part (the candidate loop visits each many
+  // times).
+  obs_dist_.resize(m, m);
+  obs_var_.resize(m, m);
+  for (int i = 0; i < m; ++i) {
+    for (int k = i + 1; k < m; ++k) {
+      const Eigen::Vector2d d = in.observed[k] - in.observed[i];
+      const double r = d.norm();
+      const Eigen::Vector2d u = r > 0.0 ? Eigen::Vector2d(d / r) : Eigen::Vector2d(1, 0);
+      obs_dist_(i, k) = obs_dist_(k, i) = r;
+      obs_var_(i, k) = obs_var_(k, i) =
+          distanceVariance(u, in.observed_cov[i], in.observed_cov[k]) + floor_var;
+    }
+  }
+  used_.clear();
+  local_of_.assign(n, -1);
+  for (int c = 0; c < n_cand; ++c) {
+    if (local_of_[graph_.col[c]] < 0) {
+      local_of_[graph_.col[c]] = static_cast<int>(used_.size());
+      used_.push_back(graph_.col[c]);
+    }
+  }
+  const int u_n = static_cast<int>(used_.size());
+  map_dist_.resize(u_n, u_n);
+  map_var_.resize(u_n, u_n);
+  for (int a = 0; a < u_n; ++a) {
+    for (int b = a + 1; b < u_n; ++b) {
+      const Eigen::Vector2d d = in.landmarks[used_[b]] - in.landmarks[used_[a]];
+      const double r = d.norm();
+      const Eigen::Vector2d u = r > 0.0 ? Eigen::Vector2d(d / r) : Eigen::Vector2d(1, 0);
+      map_dist_(a, b) = map_dist_(b, a) = r;
+      map_var_(a, b) = map_var_(b, a) =
+          distanceVariance(u, in.landmark_cov[used_[a]], in.landmark_cov[used_[b]]);
+    }
+  }
+  for (int c = 0; c < n_cand; ++c) {
+    graph_.beginRow();
+    graph_.addEntry(c, cand_node_[c]);
+    const int i = graph_.row[c];
+    const int a = local_of_[graph_.col[c]];
+    for (int k = 0; k < m; ++k) {
+      if (k == i) continue;
+      const double d_obs = obs_dist_(i, k);
+      const double var_obs = obs_var_(i, k);
+      for (int d = cand_begin_[k]; d < cand_begin_[k + 1]; ++d) {
+        const int b = local_of_[graph_.col[d]];
+        if (b == a) continue;  // one landmark for two observations: conflicting
+        const double var = var_obs + map_var_(a, b);
+        const double e = d_obs - map_dist_(a, b);
+        if (e * e > gate2 * var) continue;
+        graph_.addEntry(d, std::exp(-0.5 * e * e / var));
+      }
+    }
+  }
+  graph_.finish();
+}
+
+void RrwscMatcher::match(const MatchInput& in, const RrwscParams& p,
+                         std::vector<int>* landmark_of_obs) {
+  p_ = p;
+  buildCandidates(in, p);
+  buildAffinity(in, p);
+  stats_.candidates = graph_.size();
+  stats_.entries = graph_.entries();
+  stats_.iterations = walk_.run(graph_, p.walk, &x_);
+  discretise(nullptr, landmark_of_obs);
+}
+
+void RrwscMatcher::discretise(const std::vector<char>* forbidden,
+                              std::vector<int>* landmark_of_obs) {
+  const int m = graph_.rows;
+  landmark_of_obs->assign(m, -1);
+  const int n_cand = graph_.size();
+  if (n_cand == 0) return;
+  const double top = x_.maxCoeff();
+  if (!(top > 0.0)) return;
+  // Rows: observations with a candidate; columns: their landmarks, then one "unmatched" column
+  // per row (cost 1 - min_relative_score, so a match must score above that share of the best).
+  obs_of_row_.clear();
+  col_of_landmark_.assign(graph_.cols, -1);
+  landmark_of_col_.clear();
+  for (int i = 0; i < m; ++i) {
+    if (cand_begin_[i] == cand_begin_[i + 1]) continue;
+    obs_of_row_.push_back(i);
+    for (int c = cand_begin_[i]; c < cand_begin_[i + 1]; ++c) {
+      if (col_of_landmark_[graph_.col[c]] < 0) {
+        col_of_landmark_[graph_.col[c]] = static_cast<int>(landmark_of_col_.size());
+        landmark_of_col_.push_back(graph_.col[c]);
+      }
+    }
+  }
+  const int rows = static_cast<int>(obs_of_row_.size());
+  const int cols = static_cast<int>(landmark_of_col_.size());
+  cost_.setConstant(rows, cols + rows, kInf);
+  for (int r = 0; r < rows; ++r) {
+    const int i = obs_of_row_[r];
+    for (int c = cand_begin_[i]; c < cand_begin_[i + 1]; ++c) {
+      if (forbidden != nullptr && (*forbidden)[c]) continue;
+      cost_(r, col_of_landmark_[graph_.col[c]]) = 1.0 - x_[c] / top;
+    }
+    cost_(r, cols + r) = 1.0 - p_.min_relative_score;
+  }
+  solver_.solve(cost_, &row_to_col_);
+  for (int r = 0; r < rows; ++r) {
+    const int col = row_to_col_[r];
+    if (col >= 0 && col < cols) (*landmark_of_obs)[obs_of_row_[r]] = landmark_of_col_[col];
+  }
+}
+
+}  // namespace ekf_slam

@@ -12,6 +12,7 @@ void RRWSC::configure(const ParameterSource& params) {
   // The gate only vetoes what the graph matching decided, so it can be wider than NN's 0.95.
   gating_.read(reader, 0.999);
   params_.read(reader, 1.0);
+  unclaimed_gate_ = reader.nonNegative("unclaimed_gate", 100.0);
   reset();
 }
 
@@ -24,6 +25,7 @@ AssociationResult RRWSC::associate(const AssociationContext& ctx) {
   candidates_ = ctx.candidateLandmarks(gating_.candidate_margin);
   const int n = static_cast<int>(candidates_.size());
   min_mahalanobis_.assign(m, std::numeric_limits<double>::infinity());
+  nearest_.assign(m, -1);
   if (m == 0 || n == 0) {
     for (int i = 0; i < m; ++i) result.decision[i] = unpairedDecision(min_mahalanobis_[i], gating_);
     return result;
@@ -39,15 +41,34 @@ AssociationResult RRWSC::associate(const AssociationContext& ctx) {
     for (int i = 0; i < m; ++i) {
       const double mij = ctx.individual(i, candidates_[j]).mahalanobis;
       input_.mahalanobis(i, j) = mij;
-      min_mahalanobis_[i] = std::min(min_mahalanobis_[i], mij);
+      if (mij < min_mahalanobis_[i]) {
+        min_mahalanobis_[i] = mij;
+        nearest_[i] = j;
+      }
     }
   }
   matcher_.match(input_, params_, &match_);
   stats_.iterations += matcher_.stats().iterations;
+  // Claimed = paired through the gate: a landmark the graph gave to an observation the filter
+  // then refused is still unexplained.
+  claimed_.assign(n, 0);
+  for (int i = 0; i < m; ++i) {
+    if (match_[i] >= 0 && input_.mahalanobis(i, match_[i]) <= gating_.individual_gate) {
+      claimed_[match_[i]] = 1;
+    }
+  }
   for (int i = 0; i < m; ++i) {
     const int j = match_[i];
     if (j < 0) {
-      result.decision[i] = unpairedDecision(min_mahalanobis_[i], gating_);
+      // An unmatched observation whose nearest landmark nobody claimed is most likely that
+      // landmark's return, farther off than the filter expects (far, noisy): rejected rather
+      // than a duplicate, up to unclaimed_gate.
+      if (nearest_[i] >= 0 && !claimed_[nearest_[i]] && min_mahalanobis_[i] <= unclaimed_gate_) {
+        ++stats_.unclaimed;
+        result.decision[i] = Decision::kRejected;
+      } else {
+        result.decision[i] = unpairedDecision(min_mahalanobis_[i], gating_);
+      }
       continue;
     }
     ++stats_.matched;

@@ -71,22 +71,49 @@ double chiSquareDistance(const ShapeContext& a, const ShapeContext& b) {
 }
 
 double shapeContextDistance(const ShapeContext& a, const ShapeContext& b) {
-  // chi2 = 0.5 (sum a + sum b) - 2 sum_k a_k b_k / (a_k + b_k): only bins where both histograms
-  // have mass cost a division. The three shifts in one pass over the bins of a.
-  double both[3] = {0.0, 0.0, 0.0};
+  // chi2 = 0.5 (sum a + sum b) - 2 sum_k a_k b_k / (a_k + b_k) (terms where either is zero
+  // vanish). b's rings are padded cyclically so the three shifts are contiguous, branch-free
+  // loops the compiler vectorises.
+  constexpr int kPad = kShapeContextAngleBins + 2;
+  double padded[kShapeContextDistanceBins * kPad];
   for (int ring = 0; ring < kShapeContextDistanceBins; ++ring) {
-    const int base = ring * kShapeContextAngleBins;
-    for (int k = 0; k < kShapeContextAngleBins; ++k) {
-      const double x = a[base + k];
-      if (x <= 0.0) continue;
-      for (int s = 0; s < 3; ++s) {
-        const double y = b[base + (k + s + kShapeContextAngleBins - 1) % kShapeContextAngleBins];
-        if (y > 0.0) both[s] += x * y / (x + y);
+    const double* src = b.data() + ring * kShapeContextAngleBins;
+    double* dst = padded + ring * kPad;
+    dst[0] = src[kShapeContextAngleBins - 1];
+    for (int k = 0; k < kShapeContextAngleBins; ++k) dst[k + 1] = src[k];
+    dst[kPad - 1] = src[0];
+  }
+  double both[3] = {0.0, 0.0, 0.0};
+  for (int s = 0; s < 3; ++s) {
+    double acc = 0.0;
+    for (int ring = 0; ring < kShapeContextDistanceBins; ++ring) {
+      const double* x = a.data() + ring * kShapeContextAngleBins;
+      const double* y = padded + ring * kPad + s;
+      for (int k = 0; k < kShapeContextAngleBins; ++k) {
+        acc += x[k] * y[k] / (x[k] + y[k] + 1e-300);
       }
     }
+    both[s] = acc;
   }
   const double half_total = 0.5 * (a.sum() + b.sum());
   return std::max(0.0, half_total - 2.0 * std::max({both[0], both[1], both[2]}));
+}
+
+RingHistogram ringHistogram(const ShapeContext& h) {
+  RingHistogram r;
+  for (int ring = 0; ring < kShapeContextDistanceBins; ++ring) {
+    r[ring] = h.segment<kShapeContextAngleBins>(ring * kShapeContextAngleBins).sum();
+  }
+  return r;
+}
+
+double ringDistance(const RingHistogram& a, const RingHistogram& b) {
+  double sum = 0.0;
+  for (int k = 0; k < kShapeContextDistanceBins; ++k) {
+    const double s = a[k] + b[k];
+    if (s > 0.0) sum += (a[k] - b[k]) * (a[k] - b[k]) / s;
+  }
+  return 0.5 * sum;
 }
 
 }  // namespace ekf_slam

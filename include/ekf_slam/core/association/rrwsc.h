@@ -22,6 +22,7 @@ class RRWSC : public DataAssociation {
     std::uint64_t matched = 0;       ///< observations the graph matching paired
     std::uint64_t incompatible = 0;  ///< of those, rejected by the filter gate
     std::uint64_t iterations = 0;    ///< random-walk iterations, summed
+    std::uint64_t unclaimed = 0;     ///< unmatched, rejected next to an unclaimed landmark
   };
 
   void configure(const ParameterSource& params) override;
@@ -41,6 +42,10 @@ class RRWSC : public DataAssociation {
   MatchInput input_;
   std::vector<int> candidates_, match_;
   std::vector<double> min_mahalanobis_;
+  std::vector<int> nearest_;       ///< per observation: local landmark of least M, or -1
+  std::vector<char> claimed_;      ///< per local landmark: matched by some observation
+  double unclaimed_gate_ = 100.0;  ///< M below which an unmatched observation next to an
+                                   ///< unclaimed landmark is rejected, not new
   Stats stats_;
 };
 

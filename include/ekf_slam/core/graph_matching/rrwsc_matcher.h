@@ -26,14 +26,21 @@ struct RrwscParams {
   /// Node affinity times exp(-position_weight M_ij / 2) when a prior gives M_ij; 0 = pure graph
   /// matching (the prior then only bounds which landmarks take part).
   double position_weight = 0.0;
+  /// M_ij is capped here in that term (default chi2(2, 0.9999)): beyond it every landmark is
+  /// equally implausible, so a wrong prior leaves the ranking to the shape contexts instead of
+  /// driving every affinity to zero.
+  double position_cap = 18.420680743952367;
   /// Pairwise distances agree within sigma = sqrt(var_obs + var_map + edge_sigma^2) [m]: the
   /// variances along the pair's direction from the points' covariances, plus this floor.
   double edge_sigma = 0.5;
   /// Edge affinity exp(-e^2 / 2 sigma^2), set to 0 beyond e > edge_gate sigma (sparsity).
   double edge_gate = 3.0;
-  /// Candidates kept per observation: the landmarks of the closest shape contexts (plus, with a
-  /// prior, the one of least M_ij). The position term does not prune, so a wrong prior cannot
-  /// remove the right landmark.
+  /// Edges link each observation's edge_neighbours nearest observations (symmetrised); 0 = all
+  /// pairs.
+  int edge_neighbours = 10;
+  /// Candidates kept per observation: the landmarks of highest node affinity (plus, with a prior,
+  /// the one of least M_ij). The position term is capped, so a wrong prior cannot push the right
+  /// landmark out.
   int candidates_per_observation = 8;
   /// A match whose walk score is below this share of the best score stays unmatched.
   double min_relative_score = 1e-3;
@@ -84,11 +91,14 @@ class RrwscMatcher {
 
   RrwscParams p_;
   std::vector<ShapeContext> obs_sc_, map_sc_;
-  Eigen::MatrixXd node_;           ///< node affinity, observations x landmarks
+  std::vector<RingHistogram> obs_rings_, map_rings_;
   std::vector<int> cand_begin_;    ///< candidates of observation i: [begin[i], begin[i+1])
   std::vector<double> cand_node_;  ///< node affinity per candidate
-  std::vector<std::pair<double, int>> order_;
+  std::vector<double> node_root_;  ///< its square root
+  std::vector<std::pair<double, int>> order_, best_;
   Eigen::MatrixXd obs_dist_, obs_var_, map_dist_, map_var_;
+  std::vector<char> linked_;  ///< observation pairs that carry edges
+  std::vector<std::pair<double, int>> near_;
   std::vector<int> used_, local_of_;  ///< landmarks among the candidates, and back
   MatchGraph graph_;
   ReweightedRandomWalks walk_;

@@ -44,4 +44,13 @@ double chiSquareDistance(const ShapeContext& a, const ShapeContext& b);
 /// -1, 0, +1 of `b` (tolerates a reference direction tilted by up to one bin).
 double shapeContextDistance(const ShapeContext& a, const ShapeContext& b);
 
+/// The histogram summed over angles: one value per log-distance ring (rotation invariant).
+using RingHistogram = Eigen::Matrix<double, kShapeContextDistanceBins, 1>;
+RingHistogram ringHistogram(const ShapeContext& h);
+
+/// Chi-square distance of the ring histograms: a lower bound of shapeContextDistance() (merging
+/// bins cannot increase a chi-square distance, and the rings do not depend on the angle shift),
+/// so candidate search can skip full comparisons that cannot win.
+double ringDistance(const RingHistogram& a, const RingHistogram& b);
+
 }  // namespace ekf_slam

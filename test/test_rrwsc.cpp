@@ -35,35 +35,7 @@ TEST(RRWSC, UnambiguousPairs) {
 }
 
 TEST(RRWSC, ClutterEmptyMapEmptyScanBehind) {
-  {
-    Scene s;
-    assoc_test::clutterScene(&s);
-    const AssociationResult r = runRrwsc(s);
-    EXPECT_EQ(r.landmark[0], Scene::idOf(0));
-    EXPECT_EQ(r.decision[1], Decision::kNew);
-    EXPECT_EQ(r.decision[2], Decision::kRejected);
-  }
-  {
-    Scene s;
-    s.build();
-    s.observePoint(Eigen::Vector2d(5, 1));
-    const AssociationResult r = runRrwsc(s);
-    ASSERT_EQ(r.decision.size(), 1u);
-    EXPECT_EQ(r.decision[0], Decision::kNew);
-  }
-  {
-    Scene s;
-    assoc_test::unambiguousScene(&s);
-    s.observations.clear();
-    s.truth.clear();
-    EXPECT_TRUE(runRrwsc(s).decision.empty());
-  }
-  {
-    Scene s;
-    assoc_test::behindScene(&s);
-    const AssociationResult r = runRrwsc(s);
-    for (int i = 0; i < 3; ++i) EXPECT_EQ(r.landmark[i], s.expectId(i)) << i;
-  }
+  assoc_test::expectEdgeCases([](const Scene& s) { return runRrwsc(s); });
 }
 
 TEST(RRWSC, ThePapersWholeMapViewWithOcclusion) {

@@ -9,22 +9,10 @@
 #include <Eigen/Geometry>
 
 #include "ekf_slam/core/graph_matching/shape_context.h"
+#include "rrwsc_fixtures.h"
 
 namespace ekf_slam {
 namespace {
-
-std::vector<Eigen::Vector2d> randomPoints(int n, double size, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-size, size);
-  std::vector<Eigen::Vector2d> p;
-  while (static_cast<int>(p.size()) < n) {
-    const Eigen::Vector2d q(u(rng), u(rng));
-    bool far = true;
-    for (const auto& o : p) far = far && (o - q).norm() > 5.0;
-    if (far) p.push_back(q);
-  }
-  return p;
-}
 
 std::vector<Eigen::Vector2d> transformed(const std::vector<Eigen::Vector2d>& p, double angle,
                                          const Eigen::Vector2d& t) {
@@ -35,7 +23,7 @@ std::vector<Eigen::Vector2d> transformed(const std::vector<Eigen::Vector2d>& p, 
 }
 
 TEST(ShapeContext, InvariantUnderRotationAndTranslation) {
-  const auto points = randomPoints(30, 60.0, 1);
+  const auto points = rrwsc_test::randomMap(30, 60.0, 5.0, 1);
   const ShapeContextParams params;
   std::vector<ShapeContext> a, b;
   shapeContexts(points, params, &a);
@@ -49,7 +37,7 @@ TEST(ShapeContext, InvariantUnderRotationAndTranslation) {
 }
 
 TEST(ShapeContext, DistinguishesThePointsOfARandomSet) {
-  const auto points = randomPoints(30, 60.0, 2);
+  const auto points = rrwsc_test::randomMap(30, 60.0, 5.0, 2);
   std::vector<ShapeContext> a, b;
   shapeContexts(points, {}, &a);
   shapeContexts(transformed(points, 1.234, {-7.0, 9.0}), {}, &b);

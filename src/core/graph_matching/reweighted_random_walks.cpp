@@ -22,6 +22,14 @@ int MatchGraph::addCandidate(int r, int c) {
   return static_cast<int>(row.size()) - 1;
 }
 
+void ReweightedRandomWalks::normaliseDummies(double dummies) {
+  double total = 0.0;
+  for (double s : slack_) total += s;
+  if (dummies > 0.0 && total > 0.0) {
+    for (double& s : slack_) s *= dummies / total;
+  }
+}
+
 void ReweightedRandomWalks::sinkhorn(const MatchGraph& g, const RrwParams& p, Eigen::VectorXd* a) {
   const int n = g.size();
   // The smaller side is padded with |rows - cols| dummy nodes of ones. The dummies stay equal to
@@ -46,13 +54,7 @@ void ReweightedRandomWalks::sinkhorn(const MatchGraph& g, const RrwParams& p, Ei
     for (int c = 0; c < n; ++c) {
       if (row_sum_[g.row[c]] > 0.0) (*a)[c] /= row_sum_[g.row[c]];
     }
-    if (pad_rows && dummies > 0.0) {  // the dummy rows sum to one each
-      double total = 0.0;
-      for (double s : slack_) total += s;
-      if (total > 0.0) {
-        for (double& s : slack_) s *= dummies / total;
-      }
-    }
+    if (pad_rows) normaliseDummies(dummies);  // the dummy rows sum to one each
     // Columns.
     std::fill(col_sum_.begin(), col_sum_.end(), 0.0);
     for (int c = 0; c < n; ++c) col_sum_[g.col[c]] += (*a)[c];
@@ -65,13 +67,7 @@ void ReweightedRandomWalks::sinkhorn(const MatchGraph& g, const RrwParams& p, Ei
     for (int c = 0; c < n; ++c) {
       if (col_sum_[g.col[c]] > 0.0) (*a)[c] /= col_sum_[g.col[c]];
     }
-    if (!pad_rows && dummies > 0.0) {
-      double total = 0.0;
-      for (double s : slack_) total += s;
-      if (total > 0.0) {
-        for (double& s : slack_) s *= dummies / total;
-      }
-    }
+    if (!pad_rows) normaliseDummies(dummies);  // the dummy columns sum to one each
     // Converged when the rows (normalised before the column step) still sum to one.
     std::fill(row_sum_.begin(), row_sum_.end(), 0.0);
     for (int c = 0; c < n; ++c) row_sum_[g.row[c]] += (*a)[c];

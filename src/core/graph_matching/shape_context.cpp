@@ -21,6 +21,17 @@ void addSoft(int ring, double angle, double weight, ShapeContext* h) {
   (*h)[ring * kShapeContextAngleBins + hi] += weight * f;
 }
 
+// 0.5 sum (a - b)^2 / (a + b) over the bins of two histograms of any size.
+template <typename Histogram>
+double chiSquare(const Histogram& a, const Histogram& b) {
+  double sum = 0.0;
+  for (int k = 0; k < a.size(); ++k) {
+    const double s = a[k] + b[k];
+    if (s > 0.0) sum += (a[k] - b[k]) * (a[k] - b[k]) / s;
+  }
+  return 0.5 * sum;
+}
+
 }  // namespace
 
 void shapeContexts(const std::vector<Eigen::Vector2d>& points, const ShapeContextParams& params,
@@ -61,14 +72,7 @@ void shapeContexts(const std::vector<Eigen::Vector2d>& points, const ShapeContex
   }
 }
 
-double chiSquareDistance(const ShapeContext& a, const ShapeContext& b) {
-  double sum = 0.0;
-  for (int k = 0; k < kShapeContextBins; ++k) {
-    const double s = a[k] + b[k];
-    if (s > 0.0) sum += (a[k] - b[k]) * (a[k] - b[k]) / s;
-  }
-  return 0.5 * sum;
-}
+double chiSquareDistance(const ShapeContext& a, const ShapeContext& b) { return chiSquare(a, b); }
 
 double shapeContextDistance(const ShapeContext& a, const ShapeContext& b) {
   // chi2 = 0.5 (sum a + sum b) - 2 sum_k a_k b_k / (a_k + b_k) (terms where either is zero
@@ -107,13 +111,6 @@ RingHistogram ringHistogram(const ShapeContext& h) {
   return r;
 }
 
-double ringDistance(const RingHistogram& a, const RingHistogram& b) {
-  double sum = 0.0;
-  for (int k = 0; k < kShapeContextDistanceBins; ++k) {
-    const double s = a[k] + b[k];
-    if (s > 0.0) sum += (a[k] - b[k]) * (a[k] - b[k]) / s;
-  }
-  return 0.5 * sum;
-}
+double ringDistance(const RingHistogram& a, const RingHistogram& b) { return chiSquare(a, b); }
 
 }  // namespace ekf_slam

@@ -70,6 +70,9 @@ class ReweightedRandomWalks {
   void sinkhorn(const MatchGraph& g, const RrwParams& p, Eigen::VectorXd* a);
 
  private:
+  /// Scales the aggregated dummy entries so that the dummies sum to one each (`dummies` of them).
+  void normaliseDummies(double dummies);
+
   Eigen::VectorXd prev_, prev2_, assign_, mixed_, cur_;
   std::vector<double> row_sum_, col_sum_, slack_;
 };

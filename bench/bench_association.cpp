@@ -12,6 +12,7 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <random>
 #include <string>
@@ -26,6 +27,7 @@
 #include "ekf_slam/core/association/jcbb.h"
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/association/nnjcbb.h"
+#include "ekf_slam/core/association/rrwsc.h"
 #include "ekf_slam/core/data_association.h"
 #include "ekf_slam/core/ekf_slam.h"
 #include "ekf_slam/core/landmark_index.h"
@@ -226,6 +228,16 @@ Factory plain() {
   return [](const Problem&) { return std::make_unique<T>(); };
 }
 
+/// An associator configured with the given parameters.
+template <typename T>
+Factory configured(std::map<std::string, std::string> params) {
+  return [params](const Problem&) {
+    auto a = std::make_unique<T>();
+    a->configure(MapParameterSource(params));
+    return std::unique_ptr<DataAssociation>(std::move(a));
+  };
+}
+
 long memAvailableBytes() {
   std::ifstream in("/proc/meminfo");
   std::string key;
@@ -253,6 +265,7 @@ void registerAll() {
       {"JCBB", plain<JCBB>()},
       {"NNJCBB", plain<NNJCBB>()},
       {"Hungarian", plain<Hungarian>()},
+      {"RRWSC", configured<RRWSC>({})},
       {"ContextOnly", plain<ContextOnly>()}};
   std::vector<int> sizes = {100, 1000};
   // Dense covariance of 10000 landmarks: 3.2 GB, held twice while the problem is set up.
@@ -281,6 +294,21 @@ void registerAll() {
           runBenchmark(st, factory, n, m, scale);
         })->Unit(benchmark::kMicrosecond);
       }
+    }
+  }
+  // Seed 004's setting: the robot sees the whole map (every landmark is a candidate: a margin
+  // wider than the map), 30 observations (20 % clutter) against 60 and 120 landmarks; the gated
+  // associators for comparison.
+  const std::map<std::string, std::string> whole = {{"candidate_margin", "1000"}};
+  for (int n : {60, 120}) {
+    for (const auto& [name, factory] :
+         std::vector<std::pair<std::string, Factory>>{{"RRWSC", configured<RRWSC>(whole)},
+                                                      {"Hungarian", configured<Hungarian>(whole)},
+                                                      {"NN", configured<NN>(whole)}}) {
+      const std::string bench = name + "/whole_map/landmarks:" + std::to_string(n) + "/obs:30";
+      benchmark::RegisterBenchmark(bench.c_str(), [factory = factory, n](benchmark::State& st) {
+        runBenchmark(st, factory, n, 30, 1.0);
+      })->Unit(benchmark::kMicrosecond);
     }
   }
 }

@@ -6,7 +6,7 @@
 #   djnn    djnn_weak, djnn_strong: JCBB, NN, DJNN, and DJNN with the paper's settings
 #           (seed 000, tables 1 and 2)
 #   hybrid  hybrid: JCBB, NNJCBB (and NN, DJNN for reference) (seed 003, A/P/R/F1)
-#   rrw     rrw_noise_*, rrw_kidnap_*, rrw_occlusion_*: NN, Hungarian, DJNN (seed 004)
+#   rrw     rrw_noise_*, rrw_kidnap_*, rrw_occlusion_*: NN, Hungarian, DJNN, RRWSC (seed 004)
 #   aekf    aekf: NN, DJNN with the plain EKF (RUNS runs), then the paper's experiment: plain
 #           EKF (aekf_ekf) and AEKF with wheel factors (aekf_aekf), 50 runs each on the same
 #           seeds, true associations and NN, yaw-rate noise of the steering noise on a straight
@@ -41,9 +41,9 @@ for e in "${experiments[@]}"; do
       ;;
     hybrid) run hybrid hybrid ekf_slam/JCBB,ekf_slam/NNJCBB,ekf_slam/NN,ekf_slam/DJNN ;;
     rrw)
-      run rrw_noise 'rrw_noise_*' ekf_slam/NN,ekf_slam/Hungarian,ekf_slam/DJNN
-      run rrw_kidnap 'rrw_kidnap_*' ekf_slam/NN,ekf_slam/Hungarian,ekf_slam/DJNN
-      run rrw_occlusion 'rrw_occlusion_*' ekf_slam/NN,ekf_slam/Hungarian,ekf_slam/DJNN
+      run rrw_noise 'rrw_noise_*' ekf_slam/NN,ekf_slam/Hungarian,ekf_slam/DJNN,ekf_slam/RRWSC
+      run rrw_kidnap 'rrw_kidnap_*' ekf_slam/NN,ekf_slam/Hungarian,ekf_slam/DJNN,ekf_slam/RRWSC
+      run rrw_occlusion 'rrw_occlusion_*' ekf_slam/NN,ekf_slam/Hungarian,ekf_slam/DJNN,ekf_slam/RRWSC
       ;;
     aekf)
       run aekf aekf ekf_slam/NN,ekf_slam/DJNN

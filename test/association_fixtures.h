@@ -17,6 +17,8 @@
 #include <random>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 
@@ -194,6 +196,42 @@ inline int largePoseErrorScene(Scene* s) {
   s->build();
   for (int j = 0; j < 5; ++j) s->observeLandmark(j);
   return decoy;
+}
+
+/// The edge cases every gated associator gets right: clutterScene (paired, new, rejected), an
+/// empty map (new), an empty scan (no decision), behindScene (bearing wrap). `run(scene)` returns
+/// the associator's result for a built scene.
+template <typename Run>
+void expectEdgeCases(Run run) {
+  {
+    Scene s;
+    clutterScene(&s);
+    const AssociationResult r = run(s);
+    EXPECT_EQ(r.landmark[0], Scene::idOf(0));
+    EXPECT_EQ(r.decision[1], Decision::kNew);
+    EXPECT_EQ(r.decision[2], Decision::kRejected);
+  }
+  {
+    Scene s;
+    s.build();
+    s.observePoint(Eigen::Vector2d(5, 1));
+    const AssociationResult r = run(s);
+    ASSERT_EQ(r.decision.size(), 1u);
+    EXPECT_EQ(r.decision[0], Decision::kNew);
+  }
+  {
+    Scene s;
+    unambiguousScene(&s);
+    s.observations.clear();
+    s.truth.clear();
+    EXPECT_TRUE(run(s).decision.empty());
+  }
+  {
+    Scene s;
+    behindScene(&s);
+    const AssociationResult r = run(s);
+    for (int i = 0; i < 3; ++i) EXPECT_EQ(r.landmark[i], s.expectId(i)) << i;
+  }
 }
 
 }  // namespace assoc_test

@@ -174,37 +174,7 @@ TEST(Hungarian, MatchesBruteForceOnRandomScenes) {
   }
 }
 
-TEST(Hungarian, ClutterEmptyMapEmptyScanBehind) {
-  {
-    Scene s;
-    assoc_test::clutterScene(&s);
-    const AssociationResult r = runHungarian(s);
-    EXPECT_EQ(r.landmark[0], Scene::idOf(0));
-    EXPECT_EQ(r.decision[1], Decision::kNew);
-    EXPECT_EQ(r.decision[2], Decision::kRejected);
-  }
-  {
-    Scene s;
-    s.build();
-    s.observePoint(Eigen::Vector2d(5, 1));
-    const AssociationResult r = runHungarian(s);
-    ASSERT_EQ(r.decision.size(), 1u);
-    EXPECT_EQ(r.decision[0], Decision::kNew);
-  }
-  {
-    Scene s;
-    assoc_test::unambiguousScene(&s);
-    s.observations.clear();
-    s.truth.clear();
-    EXPECT_TRUE(runHungarian(s).decision.empty());
-  }
-  {
-    Scene s;
-    assoc_test::behindScene(&s);
-    const AssociationResult r = runHungarian(s);
-    for (int i = 0; i < 3; ++i) EXPECT_EQ(r.landmark[i], s.expectId(i)) << i;
-  }
-}
+TEST(Hungarian, ClutterEmptyMapEmptyScanBehind) { assoc_test::expectEdgeCases(runHungarian); }
 
 }  // namespace
 }  // namespace ekf_slam

@@ -132,35 +132,11 @@ TEST(NNJCBB, EveryNScansAndReset) {
 }
 
 TEST(NNJCBB, ClutterEmptyMapEmptyScanBehind) {
-  {
-    Scene s;
-    assoc_test::clutterScene(&s);
-    const AssociationResult r = makeHybrid().associate(s.context());
-    EXPECT_EQ(r.landmark[0], Scene::idOf(0));
-    EXPECT_EQ(r.decision[1], Decision::kNew);
-    EXPECT_EQ(r.decision[2], Decision::kRejected);
-  }
-  {
-    Scene s;
-    s.build();
-    s.observePoint(Eigen::Vector2d(5, 1));
-    const AssociationResult r = makeHybrid().associate(s.context());
-    ASSERT_EQ(r.decision.size(), 1u);
-    EXPECT_EQ(r.decision[0], Decision::kNew);
-  }
-  {
-    Scene s;
-    assoc_test::unambiguousScene(&s);
-    s.observations.clear();
-    s.truth.clear();
-    EXPECT_TRUE(makeHybrid({{"jcbb_every_n_scans", "1"}}).associate(s.context()).decision.empty());
-  }
-  {
-    Scene s;
-    assoc_test::behindScene(&s);
-    const AssociationResult r = makeHybrid({{"jcbb_every_n_scans", "1"}}).associate(s.context());
-    for (int i = 0; i < 3; ++i) EXPECT_EQ(r.landmark[i], s.expectId(i)) << i;
-  }
+  // Plain, and with JCBB forced at every scan.
+  assoc_test::expectEdgeCases([](const Scene& s) { return makeHybrid().associate(s.context()); });
+  assoc_test::expectEdgeCases([](const Scene& s) {
+    return makeHybrid({{"jcbb_every_n_scans", "1"}}).associate(s.context());
+  });
 }
 
 TEST(NNJCBB, NeverPairsALandmarkTwiceOnRandomScenes) {

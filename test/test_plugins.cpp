@@ -16,7 +16,7 @@ namespace ekf_slam {
 namespace {
 
 const std::vector<std::string> kNames = {"ekf_slam/DJNN", "ekf_slam/Hungarian", "ekf_slam/JCBB",
-                                         "ekf_slam/NN", "ekf_slam/NNJCBB"};
+                                         "ekf_slam/NN",   "ekf_slam/NNJCBB",    "ekf_slam/RRWSC"};
 
 bool contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;

@@ -7,6 +7,7 @@
 #include "ekf_slam/core/association/jcbb.h"
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/association/nnjcbb.h"
+#include "ekf_slam/core/association/rrwsc.h"
 #include "ekf_slam/core/data_association.h"
 
 PLUGINLIB_EXPORT_CLASS(ekf_slam::NN, ekf_slam::DataAssociation)
@@ -14,3 +15,4 @@ PLUGINLIB_EXPORT_CLASS(ekf_slam::JCBB, ekf_slam::DataAssociation)
 PLUGINLIB_EXPORT_CLASS(ekf_slam::DJNN, ekf_slam::DataAssociation)
 PLUGINLIB_EXPORT_CLASS(ekf_slam::NNJCBB, ekf_slam::DataAssociation)
 PLUGINLIB_EXPORT_CLASS(ekf_slam::Hungarian, ekf_slam::DataAssociation)
+PLUGINLIB_EXPORT_CLASS(ekf_slam::RRWSC, ekf_slam::DataAssociation)

@@ -17,8 +17,8 @@ int localIndex(const std::vector<int>& candidates, int index) {
 
 }  // namespace
 
-void GatingParameters::read(const ParameterReader& reader) {
-  individual_probability = reader.probability("individual_probability", 0.95);
+void GatingParameters::read(const ParameterReader& reader, double individual_default) {
+  individual_probability = reader.probability("individual_probability", individual_default);
   individual_gate = chi2Quantile(individual_probability, 2);
   candidate_margin = reader.nonNegative("candidate_margin", 5.0);
   new_landmark_probability = reader.probability("new_landmark_probability", 0.9999);

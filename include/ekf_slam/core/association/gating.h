@@ -27,7 +27,8 @@ struct GatingParameters {
 
   /// Reads and validates the three parameters (new_landmark_probability must be >=
   /// individual_probability: a new landmark inside the pairing gate would duplicate one).
-  void read(const ParameterReader& reader);
+  /// `individual_default` is the default of individual_probability (RRWSC gates looser).
+  void read(const ParameterReader& reader, double individual_default = 0.95);
 };
 
 /// One individually compatible pairing of an observation with a candidate landmark.

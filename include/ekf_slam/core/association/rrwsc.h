@@ -1,0 +1,52 @@
+// RRW&SC data association (seed 004; ALGORITHMS.md section 7): the scan and the landmarks in the
+// sensor's reach are matched as two graphs by RrwscMatcher (shape context, pairwise distances,
+// reweighted random walks, Hungarian discretisation), then each match is gated against the
+// filter before it is used as an update. Parameters and decisions: docs/association.md, "RRWSC".
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "ekf_slam/core/association/gating.h"
+#include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/graph_matching/rrwsc_matcher.h"
+
+namespace ekf_slam {
+
+class RRWSC : public DataAssociation {
+ public:
+  /// Counters since configure()/reset().
+  struct Stats {
+    std::uint64_t scans = 0;         ///< associate() calls with observations and landmarks
+    std::uint64_t matched = 0;       ///< observations the graph matching paired
+    std::uint64_t incompatible = 0;  ///< of those, rejected by the filter gate
+    std::uint64_t iterations = 0;    ///< random-walk iterations, summed
+    std::uint64_t unclaimed = 0;     ///< unmatched, rejected next to an unclaimed landmark
+  };
+
+  void configure(const ParameterSource& params) override;
+  std::string name() const override { return "RRWSC"; }
+  AssociationResult associate(const AssociationContext& ctx) override;
+  void reset() override { stats_ = Stats(); }
+
+  const GatingParameters& gating() const { return gating_; }
+  const RrwscParams& params() const { return params_; }
+  const Stats& stats() const { return stats_; }
+  const RrwscMatcher& matcher() const { return matcher_; }
+
+ private:
+  GatingParameters gating_;
+  RrwscParams params_;
+  RrwscMatcher matcher_;
+  MatchInput input_;
+  std::vector<int> candidates_, match_;
+  std::vector<double> min_mahalanobis_;
+  std::vector<int> nearest_;       ///< per observation: local landmark of least M, or -1
+  std::vector<char> claimed_;      ///< per local landmark: matched by some observation
+  double unclaimed_gate_ = 100.0;  ///< M below which an unmatched observation next to an
+                                   ///< unclaimed landmark is rejected, not new
+  Stats stats_;
+};
+
+}  // namespace ekf_slam

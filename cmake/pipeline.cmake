@@ -9,7 +9,7 @@ add_executable(bench_pipeline ${PROJECT_SOURCE_DIR}/bench/bench_pipeline.cpp)
 target_link_libraries(bench_pipeline ekf_slam_core)
 
 if(CATKIN_ENABLE_TESTING)
-  foreach(t test_slam_pipeline test_input_sequencer test_pipeline_config)
+  foreach(t test_slam_pipeline test_input_sequencer test_pipeline_config test_recovery)
     catkin_add_gtest(${t} ${PROJECT_SOURCE_DIR}/test/${t}.cpp)
     target_include_directories(${t} PRIVATE ${PROJECT_SOURCE_DIR}/test)
     target_link_libraries(${t} ekf_slam_core)

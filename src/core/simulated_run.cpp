@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/pipeline_config.h"
 
 namespace ekf_slam {
@@ -43,6 +44,8 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
       {"initial_pose_x", text(world.start_pose.x())},
       {"initial_pose_y", text(world.start_pose.y())},
       {"initial_pose_yaw", text(world.start_pose.z())},
+      // Lost rule 1 counts the landmarks the sensor should see.
+      {"lost_field_of_view", text(std::min(world.sensor.field_of_view, 2.0 * M_PI))},
   };
 }
 
@@ -52,6 +55,8 @@ PipelineConfig pipelineConfigFor(const World& world) {
 
 std::map<std::string, std::string> associatorParametersFor(const World& world,
                                                            const std::string& short_name) {
+  if (short_name == "FGCBB" || short_name == "GCBB")
+    return {{"sensor_range", text(coveringRange(world))}};
   if (short_name != "DJNN") return {};
   // DJNN's local region (eq. 10) and its evidence counter need the sensor's real extent: a
   // landmark outside it must not be counted as missed.
@@ -79,8 +84,34 @@ void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>&
     have_first_ = true;
     first_stamp_ = report.stamp;
   }
+  if (kidnap_pending_) {
+    kidnap_pending_ = false;
+    kidnapped_ = true;
+    kidnap_scan_ = scans_ - 1;
+    kidnap_stamp_ = report.stamp;
+  }
+  if (report.relocalised) {
+    ++relocalisations_;
+    if (true_pose != nullptr) {
+      const Eigen::Vector3d& p = report.relocalisation.pose;
+      const bool wrong =
+          (p.head<2>() - true_pose->head<2>()).norm() > kWrongRelocalisationDistance ||
+          std::abs(wrapAngle(p.z() - true_pose->z())) > kWrongRelocalisationAngle;
+      wrong_relocalisations_ += wrong;
+    }
+  }
   double nees = std::numeric_limits<double>::quiet_NaN();
   if (true_pose != nullptr) {
+    const double error = (estimate.head<2>() - true_pose->head<2>()).norm();
+    if (kidnapped_ && !recovered_ && error < kRecoveredDistance) {
+      recovered_ = true;
+      recovery_scans_ = static_cast<std::int64_t>(scans_ - 1 - kidnap_scan_);
+      recovery_s_ = report.stamp - kidnap_stamp_;
+    }
+    if (recovered_) {
+      after_sum_ += error * error;
+      ++after_n_;
+    }
     nees = pose_.add(estimate, cov, *true_pose);
     if (std::isfinite(nees) && report.stamp - first_stamp_ >= nees_skip_s_) {
       nees_sum_ += nees;
@@ -88,6 +119,10 @@ void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>&
     }
   }
   nees_.push_back(nees);
+}
+
+void RunScorer::markKidnap() {
+  if (!kidnapped_) kidnap_pending_ = true;  // the first kidnap is the one timed
 }
 
 RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
@@ -107,7 +142,16 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
   const double n = scans_ > 0 ? static_cast<double>(scans_) : 1.0;
   m.association_us_mean = 1e6 * association_s_ / n;
   m.update_us_mean = 1e6 * update_s_ / n;
-  if (pipeline != nullptr) m.rejected_updates = pipeline->counters().rejected_updates;
+  if (pipeline != nullptr) {
+    m.rejected_updates = pipeline->counters().rejected_updates;
+    m.lost_events = pipeline->counters().lost_events;
+  }
+  m.relocalisations = relocalisations_;
+  m.wrong_relocalisations = wrong_relocalisations_;
+  m.recovery_scans = recovery_scans_;
+  m.recovery_s = recovery_s_;
+  m.pose_rmse_after_recovery_m =
+      after_n_ > 0 ? std::sqrt(after_sum_ / static_cast<double>(after_n_)) : nan;
   return m;
 }
 
@@ -115,11 +159,14 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
 
 RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const PipelineConfig& config,
                          std::shared_ptr<DataAssociation> associator,
-                         std::vector<double>* nees_per_scan) {
+                         std::vector<double>* nees_per_scan,
+                         std::shared_ptr<Relocaliser> relocaliser) {
   const auto t0 = std::chrono::steady_clock::now();
   associator->reset();
   SlamPipeline pipeline(config, std::move(associator));
   pipeline.setSensorOffset(world.sensor.offset);
+  pipeline.setRelocaliser(std::move(relocaliser));
+  int kidnaps = 0;
   sim::Simulation simulation(world, seed);
   RunScorer scorer;
   std::vector<LandmarkId> truth;
@@ -137,6 +184,10 @@ RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const Pipe
     }
     const sim::ObservationSet& set = simulation.observations();
     const std::vector<LandmarkId> all = set.truthIds();
+    if (simulation.kidnapsApplied() > kidnaps) {
+      kidnaps = simulation.kidnapsApplied();
+      scorer.markKidnap();
+    }
     const ScanReport report =
         pipeline.processObservations(set.stamp + sim::kStampOffset, set.toObservations());
     truth.clear();

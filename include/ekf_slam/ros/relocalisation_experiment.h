@@ -13,9 +13,10 @@
 // A test scan is "inside the mapped area" when at least --inside-landmarks map landmarks lie
 // within --range of the sensor at the reference pose and in its field of view; it has "enough
 // observations" with at least --min-observations observations (all of the scan's trees). An answer
-// is correct when found, no pairing contradicts the reference run's (an observation the run
-// paired with a map landmark paired with another one) and within 5 m of the reference pose (which
-// has drifted from the map of the map scans since); a found answer that is not correct is wrong.
+// is correct when found within 5 m and 0.2 rad of the reference pose (which has drifted from the
+// map of the map scans since), else wrong. Found answers with a pairing that contradicts the
+// reference run's (an observation the run paired with a map landmark paired with another) are
+// counted apart (found_with_association_conflicts, scans.csv conflicts).
 #pragma once
 
 #include <cmath>

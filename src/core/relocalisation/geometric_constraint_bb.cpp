@@ -15,12 +15,6 @@ namespace ekf_slam {
 
 namespace {
 
-Eigen::Matrix2d rotation(double a) {
-  Eigen::Matrix2d R;
-  R << std::cos(a), -std::sin(a), std::sin(a), std::cos(a);
-  return R;
-}
-
 RelocalisationResult notFound(RelocalisationResult r, const std::string& reason,
                               RelocalisationStatus status = RelocalisationStatus::kNotFound) {
   r.status = status;
@@ -96,7 +90,7 @@ void GeometricConstraintBB::gatedCandidates(int point, const Eigen::Vector3d& po
                                             const Eigen::Matrix3d& cov, double gate,
                                             std::vector<int>* out) const {
   const ObservedPoint& o = points_[point];
-  const Eigen::Matrix2d R = rotation(pose.z());
+  const Eigen::Matrix2d R = rotation2d(pose.z());
   Eigen::Matrix2d dR;
   dR << -std::sin(pose.z()), -std::cos(pose.z()), std::cos(pose.z()), -std::sin(pose.z());
   Eigen::Matrix<double, 2, 3> J;
@@ -307,7 +301,7 @@ GeometricConstraintBB::Verified GeometricConstraintBB::verify(
     }
   }
   // Negative information: the map landmarks the sensor should see from this pose.
-  const Eigen::Matrix2d R = rotation(v.fit.pose.z());
+  const Eigen::Matrix2d R = rotation2d(v.fit.pose.z());
   const Eigen::Vector2d sensor = R * sensor_offset_.head<2>() + v.fit.pose.head<2>();
   const double yaw = v.fit.pose.z() + sensor_offset_.z();
   std::vector<int> near;

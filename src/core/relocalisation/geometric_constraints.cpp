@@ -14,12 +14,6 @@ namespace ekf_slam {
 
 namespace {
 
-Eigen::Matrix2d rotation(double a) {
-  Eigen::Matrix2d R;
-  R << std::cos(a), -std::sin(a), std::sin(a), std::cos(a);
-  return R;
-}
-
 bool positiveDefinite(const Eigen::Matrix2d& C) {
   return C.allFinite() && C(0, 0) > 0.0 && C(1, 1) > 0.0 && C.determinant() > 0.0;
 }
@@ -34,11 +28,17 @@ double distanceVariance(const Eigen::Vector2d& d, const Eigen::Matrix2d& cov) {
 
 }  // namespace
 
+Eigen::Matrix2d rotation2d(double a) {
+  Eigen::Matrix2d R;
+  R << std::cos(a), -std::sin(a), std::sin(a), std::cos(a);
+  return R;
+}
+
 std::vector<ObservedPoint> observedPoints(const std::vector<Observation>& observations,
                                           const Eigen::Vector3d& sensor_offset, double max_range) {
   std::vector<ObservedPoint> out;
   out.reserve(observations.size());
-  const Eigen::Matrix2d Rs = rotation(sensor_offset.z());
+  const Eigen::Matrix2d Rs = rotation2d(sensor_offset.z());
   for (std::size_t i = 0; i < observations.size(); ++i) {
     const Observation& o = observations[i];
     const double r = o.z.x(), b = o.z.y();
@@ -164,12 +164,12 @@ PoseFit fitPose(const std::vector<PointPairing>& pairings, int iterations) {
     s_sin += a.x() * b.y() - a.y() * b.x();
   }
   double phi = std::atan2(s_sin, s_cos);
-  Eigen::Vector2d t = cm - rotation(phi) * cp;
+  Eigen::Vector2d t = cm - rotation2d(phi) * cp;
 
   // Weighted Gauss-Newton on r_i = m_j - (R(phi) p_i + t), W_i = (C_j + R cov_i R^T)^-1.
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
   for (int it = 0; it <= iterations; ++it) {
-    const Eigen::Matrix2d R = rotation(phi);
+    const Eigen::Matrix2d R = rotation2d(phi);
     Eigen::Matrix2d dR;  // dR/dphi
     dR << -std::sin(phi), -std::cos(phi), std::cos(phi), -std::sin(phi);
     H.setZero();

@@ -17,6 +17,9 @@
 
 namespace ekf_slam {
 
+/// The 2D rotation by `a` [rad].
+Eigen::Matrix2d rotation2d(double a);
+
 /// One observation as a point on base_link.
 struct ObservedPoint {
   int input = 0;                                  ///< index of the observation in the scan

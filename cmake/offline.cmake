@@ -37,3 +37,13 @@ if(CATKIN_ENABLE_TESTING)
   target_compile_definitions(test_offline_runner PRIVATE
     REPLAY_ASSOCIATION_BIN="$<TARGET_FILE:replay_association>")
 endif()
+
+# The Victoria Park relocalisation experiment of seed 001 paper 2 (docs/relocalisation.md):
+#   relocalisation_experiment --bag B --params P --map-scans 0:1000 --test-scans 1000:2500 ...
+add_executable(relocalisation_experiment src/nodes/relocalisation_experiment.cpp
+                                         src/ros/relocalisation_experiment.cpp)
+target_link_libraries(relocalisation_experiment ekf_slam_offline_runner
+                      nlohmann_json::nlohmann_json)
+add_dependencies(relocalisation_experiment ekf_slam_relocalisation_plugins)
+set_target_properties(relocalisation_experiment PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${BIN_DIR})
+install(TARGETS relocalisation_experiment RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})

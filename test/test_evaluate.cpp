@@ -15,8 +15,8 @@
 
 #include "ekf_slam/core/association/djnn.h"
 #include "ekf_slam/core/parameters.h"
-#include "ekf_slam/ros/associator_loader.h"
 #include "ekf_slam/ros/evaluate.h"
+#include "ekf_slam/ros/plugin_loader.h"
 #include "test_files.h"
 
 namespace ekf_slam {

@@ -3,6 +3,8 @@
 
 #include <map>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "ekf_slam/core/pipeline_config.h"
 
@@ -78,6 +80,43 @@ void expectError(const std::string& name, const std::string& value) {
     ADD_FAILURE() << name << " = " << value << " was accepted";
   } catch (const ParameterError& e) {
     EXPECT_NE(std::string(e.what()).find("/ekf_slam/" + name), std::string::npos) << e.what();
+  }
+}
+
+TEST(PipelineConfig, ReadsTheRecoveryParameters) {
+  const PipelineConfig d;
+  EXPECT_EQ(d.relocaliser, "");  // recovery off by default
+  MapParameterSource p;
+  p.set("relocaliser", "ekf_slam/FGCBB");
+  p.set("lost_unpaired_scans", "4");
+  p.set("lost_min_observations", "2");
+  p.set("lost_min_expected", "5");
+  p.set("lost_view_range", "20");
+  p.set("lost_field_of_view", "6.2");
+  p.set("lost_nis_scans", "0");
+  p.set("lost_nis_probability", "0.99");
+  const PipelineConfig c = readPipelineConfig(p);
+  EXPECT_EQ(c.relocaliser, "ekf_slam/FGCBB");
+  EXPECT_EQ(c.lost_unpaired_scans, 4);
+  EXPECT_EQ(c.lost_min_observations, 2);
+  EXPECT_EQ(c.lost_min_expected, 5);
+  EXPECT_DOUBLE_EQ(c.lost_view_range, 20.0);
+  EXPECT_DOUBLE_EQ(c.lost_field_of_view, 6.2);
+  EXPECT_EQ(c.lost_nis_scans, 0);
+  EXPECT_DOUBLE_EQ(c.lost_nis_probability, 0.99);
+  for (const auto& [name, value] :
+       std::vector<std::pair<std::string, std::string>>{{"lost_unpaired_scans", "-1"},
+                                                        {"lost_field_of_view", "7"},
+                                                        {"lost_nis_probability", "1"},
+                                                        {"lost_view_range", "-3"}}) {
+    MapParameterSource bad;
+    bad.set(name, value);
+    try {
+      readPipelineConfig(bad);
+      ADD_FAILURE() << name << " = " << value << " accepted";
+    } catch (const ParameterError& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
   }
 }
 

@@ -1,6 +1,7 @@
-// Every associator loads through pluginlib by name (needs the devel space's environment, which
-// ctest provides; no master), a misspelt name lists the available ones, bad parameters from YAML
-// name the parameter. RosParameterSource is tested under rostest (test_ros_parameter_source).
+// Every associator and relocaliser loads through pluginlib by name (one PluginLoader for both
+// families; needs the devel space's environment, which ctest provides; no master), a misspelt
+// name lists the available ones, bad parameters from YAML name the parameter. RosParameterSource is
+// tested under rostest (test_ros_parameter_source).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,7 +9,8 @@
 #include <vector>
 
 #include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/ros/associator_loader.h"
+#include "ekf_slam/core/relocalisation/fgcbb.h"
+#include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/tools/association_problem.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
 
@@ -105,6 +107,91 @@ TEST(AssociatorLoader, InstanceOutlivesTheLoader) {
   EXPECT_EQ(replayAssociation(problem, *assoc).landmark, (std::vector<int>{1, -1, 2, 0}));
   EXPECT_EQ(assoc->name(), "JCBB");
   assoc.reset();
+}
+
+// --- relocalisers (the same loader, the other family) -------------------------------------------
+
+const std::vector<std::string> kRelocalisers = {"ekf_slam/FGCBB", "ekf_slam/GCBB",
+                                                "ekf_slam/RRWSC"};
+
+TEST(RelocaliserLoader, DeclaresEveryRelocaliserAndOnlyThem) {
+  RelocaliserLoader loader;
+  // Other families' plugins (the associators: DJNN, NN, ...) are not relocalisers; RRWSC is in
+  // both families, with a class of each.
+  for (const auto& name : kRelocalisers) {
+    const auto a = loader.available();
+    EXPECT_NE(std::find(a.begin(), a.end(), name), a.end()) << name;
+  }
+  for (const auto& name : loader.available()) {
+    EXPECT_NE(std::find(kRelocalisers.begin(), kRelocalisers.end(), name), kRelocalisers.end())
+        << name;
+  }
+  EXPECT_STREQ(RelocaliserLoader::kDefault, "ekf_slam/FGCBB");
+}
+
+TEST(RelocaliserLoader, LoadsByFullOrBareNameAndRelocalises) {
+  RelocaliserLoader loader;
+  for (const auto& name : {std::string("ekf_slam/FGCBB"), std::string("GCBB")}) {
+    SCOPED_TRACE(name);
+    const auto reloc = loader.create(name, MapParameterSource());
+    ASSERT_TRUE(reloc);
+    EXPECT_EQ("ekf_slam/" + reloc->name(), RelocaliserLoader::lookupName(name));
+    // Five landmarks seen from the origin: the pose comes back.
+    std::vector<MapLandmark> map;
+    std::vector<Observation> obs;
+    const std::vector<Eigen::Vector2d> pts = {{5, 1}, {8, -3}, {3, 6}, {11, 4}, {6, -7}, {2, -2}};
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      MapLandmark l;
+      l.id = static_cast<LandmarkId>(10 + i);
+      l.position = pts[i] + Eigen::Vector2d(100, 50);
+      l.covariance = Eigen::Matrix2d::Identity() * 0.01;
+      map.push_back(l);
+      Observation o;
+      o.z = Eigen::Vector2d(pts[i].norm(), std::atan2(pts[i].y(), pts[i].x()));
+      o.R = Eigen::Vector2d(0.01, 1e-4).asDiagonal();
+      obs.push_back(o);
+    }
+    reloc->setMap(map);
+    const auto r = reloc->relocalise(obs, Eigen::Vector3d::Zero(), nullptr);
+    ASSERT_EQ(r.status, RelocalisationStatus::kFound) << r.reason;
+    EXPECT_NEAR(r.pose.x(), 100.0, 1e-3);
+    EXPECT_NEAR(r.pose.y(), 50.0, 1e-3);
+    EXPECT_EQ(r.landmark.front(), 10);
+  }
+}
+
+TEST(RelocaliserLoader, MisspeltNameListsTheAvailableOnes) {
+  RelocaliserLoader loader;
+  try {
+    loader.create("ekf_slam/FGCB", MapParameterSource());
+    FAIL() << "ekf_slam/FGCB was created";
+  } catch (const UnknownRelocaliserError& e) {
+    const std::string what = e.what();
+    EXPECT_TRUE(contains(what, "unknown relocaliser 'ekf_slam/FGCB'")) << what;
+    for (const auto& name : kRelocalisers) EXPECT_TRUE(contains(what, name)) << what;
+    EXPECT_FALSE(contains(what, "ekf_slam/DJNN")) << what;
+  }
+  // An associator's name is no relocaliser.
+  EXPECT_THROW(loader.create("DJNN", MapParameterSource()), UnknownRelocaliserError);
+}
+
+TEST(RelocaliserLoader, ConfiguresFromItsSectionAndNamesBadParameters) {
+  RelocaliserLoader loader;
+  const auto src = YamlParameterSource::fromString("FGCBB:\n  group_size: 8\n  sensor_range: 20\n",
+                                                   "FGCBB", "p.yaml");
+  const auto reloc = loader.create("FGCBB", src);
+  const auto* f = dynamic_cast<const FGCBB*>(reloc.get());
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->params().group_size, 8);
+  EXPECT_DOUBLE_EQ(f->params().sensor_range, 20.0);
+  const auto bad =
+      YamlParameterSource::fromString("FGCBB:\n  joint_probability: 2\n", "FGCBB", "p.yaml");
+  try {
+    loader.create("FGCBB", bad);
+    FAIL() << "joint_probability = 2 accepted";
+  } catch (const ParameterError& e) {
+    EXPECT_TRUE(contains(e.what(), "p.yaml:FGCBB/joint_probability")) << e.what();
+  }
 }
 
 // --- YamlParameterSource -------------------------------------------------------------------------

@@ -70,6 +70,15 @@ Eigen::Matrix2d EkfSlam::correctionCovariance() const {
   return C;
 }
 
+void EkfSlam::replacePose(const Eigen::Vector3d& pose, const Eigen::Matrix3d& pose_cov) {
+  x_.head<3>() = pose;
+  x_(2) = wrapAngle(x_(2));
+  P_.topLeftCorner<3, 3>() = 0.5 * (pose_cov + pose_cov.transpose());
+  const Eigen::Index n = P_.rows() - 3;
+  P_.topRightCorner(3, n).setZero();
+  P_.bottomLeftCorner(n, 3).setZero();
+}
+
 int EkfSlam::indexOf(LandmarkId id) const {
   const auto it = index_of_.find(id);
   return it == index_of_.end() ? -1 : it->second;

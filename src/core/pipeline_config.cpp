@@ -90,6 +90,21 @@ void PipelineConfig::validate() const {
   positive(max_odometry_gap, "max_odometry_gap");
   nonNegative(max_latency, "max_latency");
   positive(time_jump_threshold, "time_jump_threshold");
+
+  const auto count = [](int v, const std::string& name) {
+    requireParameter(v >= 0 && v <= 100000, name, "must lie in [0, 100000]", v);
+  };
+  count(lost_unpaired_scans, "lost_unpaired_scans");
+  count(lost_min_observations, "lost_min_observations");
+  count(lost_min_expected, "lost_min_expected");
+  count(lost_recent_scans, "lost_recent_scans");
+  nonNegative(lost_view_range, "lost_view_range");
+  requireParameter(lost_field_of_view > 0.0 && lost_field_of_view <= 2.0 * M_PI,
+                   "lost_field_of_view", "must lie in (0, 2 pi]", lost_field_of_view);
+  count(lost_nis_scans, "lost_nis_scans");
+  count(lost_max_scans, "lost_max_scans");
+  requireParameter(lost_nis_probability > 0.0 && lost_nis_probability < 1.0, "lost_nis_probability",
+                   "must lie in (0, 1)", lost_nis_probability);
 }
 
 PipelineConfig readPipelineConfig(const ParameterSource& params) {
@@ -172,6 +187,17 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.max_odometry_gap = r.positive("max_odometry_gap", c.max_odometry_gap);
   c.max_latency = r.nonNegative("max_latency", c.max_latency);
   c.time_jump_threshold = r.positive("time_jump_threshold", c.time_jump_threshold);
+
+  c.relocaliser = r.text("relocaliser", c.relocaliser);
+  c.lost_unpaired_scans = r.integer("lost_unpaired_scans", c.lost_unpaired_scans, 0, 100000);
+  c.lost_min_observations = r.integer("lost_min_observations", c.lost_min_observations, 0, 100000);
+  c.lost_min_expected = r.integer("lost_min_expected", c.lost_min_expected, 0, 100000);
+  c.lost_recent_scans = r.integer("lost_recent_scans", c.lost_recent_scans, 0, 100000);
+  c.lost_view_range = r.nonNegative("lost_view_range", c.lost_view_range);
+  c.lost_field_of_view = r.inRange("lost_field_of_view", c.lost_field_of_view, 1e-6, 2.0 * M_PI);
+  c.lost_nis_scans = r.integer("lost_nis_scans", c.lost_nis_scans, 0, 100000);
+  c.lost_max_scans = r.integer("lost_max_scans", c.lost_max_scans, 0, 100000);
+  c.lost_nis_probability = r.probability("lost_nis_probability", c.lost_nis_probability);
 
   c.validate();  // cross-field checks; the names are the parameter names
   return c;

@@ -44,6 +44,8 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
       {"initial_pose_x", text(world.start_pose.x())},
       {"initial_pose_y", text(world.start_pose.y())},
       {"initial_pose_yaw", text(world.start_pose.z())},
+      // Lost rule 1 counts the landmarks the sensor should see.
+      {"lost_field_of_view", text(std::min(world.sensor.field_of_view, 2.0 * M_PI))},
   };
   // What odometry_correction: wheel_factors needs to match the simulated wheels.
   if (world.noise.odometry_wheel_factors != Eigen::Vector2d::Ones())
@@ -57,6 +59,8 @@ PipelineConfig pipelineConfigFor(const World& world) {
 
 std::map<std::string, std::string> associatorParametersFor(const World& world,
                                                            const std::string& short_name) {
+  if (short_name == "FGCBB" || short_name == "GCBB")
+    return {{"sensor_range", text(coveringRange(world))}};
   if (short_name != "DJNN") return {};
   // DJNN's local region (eq. 10) and its evidence counter need the sensor's real extent: a
   // landmark outside it must not be counted as missed.
@@ -105,12 +109,37 @@ void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>&
     have_first_ = true;
     first_stamp_ = report.stamp;
   }
+  if (kidnap_pending_) {
+    kidnap_pending_ = false;
+    kidnapped_ = true;
+    kidnap_scan_ = scans_ - 1;
+    kidnap_stamp_ = report.stamp;
+  }
+  if (report.relocalised) {
+    ++relocalisations_;
+    if (true_pose != nullptr) {
+      const Eigen::Vector3d& p = report.relocalisation.pose;
+      const bool wrong =
+          (p.head<2>() - true_pose->head<2>()).norm() > kWrongRelocalisationDistance ||
+          std::abs(wrapAngle(p.z() - true_pose->z())) > kWrongRelocalisationAngle;
+      wrong_relocalisations_ += wrong;
+    }
+  }
   double nees = std::numeric_limits<double>::quiet_NaN();
   Eigen::Vector2d error = Eigen::Vector2d::Constant(nees);
   if (true_pose != nullptr) {
+    const double distance = (estimate.head<2>() - true_pose->head<2>()).norm();
+    if (kidnapped_ && !recovered_ && distance < kRecoveredDistance) {
+      recovered_ = true;
+      recovery_scans_ = static_cast<std::int64_t>(scans_ - 1 - kidnap_scan_);
+      recovery_s_ = report.stamp - kidnap_stamp_;
+    }
+    if (recovered_) {
+      after_sum_ += distance * distance;
+      ++after_n_;
+    }
     nees = pose_.add(estimate, cov, *true_pose);
-    error << (estimate.head<2>() - true_pose->head<2>()).norm(),
-        std::abs(wrapAngle(estimate(2) - (*true_pose)(2)));
+    error << distance, std::abs(wrapAngle(estimate(2) - (*true_pose)(2)));
     if (std::isfinite(nees) && report.stamp - first_stamp_ >= nees_skip_s_) {
       nees_sum_ += nees;
       ++nees_n_;
@@ -118,6 +147,10 @@ void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>&
   }
   nees_.push_back(nees);
   errors_.push_back(error);
+}
+
+void RunScorer::markKidnap() {
+  if (!kidnapped_) kidnap_pending_ = true;  // the first kidnap is the one timed
 }
 
 RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
@@ -143,7 +176,14 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
     m.correction_names = pipeline->odometryCorrection().names();
     m.correction = ekf.correction();
     m.correction_sigma = ekf.correctionCovariance().diagonal().cwiseSqrt();
+    m.lost_events = pipeline->counters().lost_events;
   }
+  m.relocalisations = relocalisations_;
+  m.wrong_relocalisations = wrong_relocalisations_;
+  m.recovery_scans = recovery_scans_;
+  m.recovery_s = recovery_s_;
+  m.pose_rmse_after_recovery_m =
+      after_n_ > 0 ? std::sqrt(after_sum_ / static_cast<double>(after_n_)) : nan;
   return m;
 }
 
@@ -152,12 +192,15 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
 RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const PipelineConfig& config,
                          std::shared_ptr<DataAssociation> associator,
                          std::vector<double>* nees_per_scan,
-                         std::vector<Eigen::Vector2d>* errors_per_scan) {
+                         std::vector<Eigen::Vector2d>* errors_per_scan,
+                         std::shared_ptr<Relocaliser> relocaliser) {
   const auto t0 = std::chrono::steady_clock::now();
   associator->reset();
   auto* known = dynamic_cast<KnownAssociation*>(associator.get());
   SlamPipeline pipeline(config, std::move(associator));
   pipeline.setSensorOffset(world.sensor.offset);
+  pipeline.setRelocaliser(std::move(relocaliser));
+  int kidnaps = 0;
   sim::Simulation simulation(world, seed);
   RunScorer scorer;
   std::vector<LandmarkId> truth;
@@ -176,6 +219,10 @@ RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const Pipe
     const sim::ObservationSet& set = simulation.observations();
     const std::vector<LandmarkId> all = set.truthIds();
     if (known != nullptr) known->setTruth(all);  // the pipeline keeps every valid observation
+    if (simulation.kidnapsApplied() > kidnaps) {
+      kidnaps = simulation.kidnapsApplied();
+      scorer.markKidnap();
+    }
     const ScanReport report =
         pipeline.processObservations(set.stamp + sim::kStampOffset, set.toObservations());
     truth.clear();

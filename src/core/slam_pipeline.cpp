@@ -2,6 +2,7 @@
 // association -> EKF update / initialisation / removal. See slam_pipeline.h.
 #include "ekf_slam/core/slam_pipeline.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -12,8 +13,10 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <Eigen/Cholesky>
 #include <Eigen/LU>
 
+#include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/parameters.h"
 
 namespace ekf_slam {
@@ -31,6 +34,15 @@ bool finite(const MotionStep& s) {
 
 constexpr const char* kMapHeader = "ekf_slam_map 1";
 
+// On a successful relocalisation the pose covariance is first set to the relocaliser's times
+// this (sigmas x 100): next to the observations it carries no information, so the EKF update
+// with the pairings that follows re-derives the pose, its covariance and its cross-covariance
+// with the map from the map and the scan alone (docs/relocalisation.md).
+constexpr double kRelocalisedPriorInflation = 1e4;
+// A probe's pose is a kidnap when the filter's estimate does not cover it: its difference from
+// the estimate, with both covariances, beyond chi2(3) at this probability.
+constexpr double kProbeProbability = 0.999;
+
 }  // namespace
 
 SlamPipeline::SlamPipeline(const PipelineConfig& config,
@@ -44,6 +56,7 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
       correction_(config.correction) {
   config_.validate();
   if (!associator_) throw std::invalid_argument("SlamPipeline: no associator given");
+  nis_chi2_ = Chi2Table(config_.lost_nis_probability, 64);
   reset();
   counters_.resets = 0;
 }
@@ -60,7 +73,212 @@ void SlamPipeline::reset() {
   last_odom_ = OdometryInput();
   odom_pose_at_time_.setZero();
   pending_steps_ = 0;
+  lost_ = false;
+  unpaired_streak_ = nis_streak_ = 0;
   ++counters_.resets;
+}
+
+// --- lost-robot recovery -------------------------------------------------------------------------
+
+void SlamPipeline::setRelocaliser(std::shared_ptr<Relocaliser> relocaliser) {
+  relocaliser_ = std::move(relocaliser);
+  if (!relocaliser_) lost_ = false;
+}
+
+bool SlamPipeline::requestRelocalisation() {
+  if (!relocaliser_) return false;
+  ++counters_.relocalisation_requests;
+  if (!lost_) enterLost();
+  return true;
+}
+
+void SlamPipeline::injectPoseJump(const Eigen::Vector3d& delta) {
+  if (!delta.allFinite()) return;
+  applyPendingMotion();
+  ekf_.setPose(ekf_.pose() + delta);
+}
+
+std::vector<MapLandmark> SlamPipeline::mapLandmarks() const {
+  const EkfSlam& ekf = this->ekf();
+  std::vector<MapLandmark> map(ekf.numLandmarks());
+  for (std::size_t k = 0; k < map.size(); ++k) {
+    MapLandmark& l = map[k];
+    l.id = ekf.landmarkIds()[k];
+    l.position = ekf.landmark(static_cast<int>(k));
+    l.covariance = ekf.landmarkCovariance(static_cast<int>(k));
+    l.descriptor = landmarkInfo(l.id).diameter;
+  }
+  return map;
+}
+
+void SlamPipeline::enterLost(bool pose_unknown) {
+  lost_ = true;
+  pose_unknown_ = pose_unknown;
+  lost_scans_ = 0;
+  unpaired_streak_ = nis_streak_ = 0;
+  relocaliser_->setMap(mapLandmarks());  // frozen until found
+}
+
+bool SlamPipeline::recent(LandmarkId id) const {
+  const auto it = info_.find(id);
+  return it != info_.end() && it->second.created_scan >= 0 &&
+         static_cast<std::int64_t>(scans_) - it->second.created_scan <= config_.lost_recent_scans;
+}
+
+void SlamPipeline::checkLost(ScanReport* report) {
+  const AssociationResult& a = report->association;
+  const int n = static_cast<int>(report->observations.size());
+  // Rule 1: observations, none paired with an established landmark, for several scans. Pairings
+  // with recent landmarks do not count: a kidnapped filter maps the place it is in anew, and
+  // pairs with what it has just mapped.
+  int established = 0;
+  for (std::size_t i = 0; i < a.decision.size(); ++i)
+    established += a.decision[i] == Decision::kPaired && !recent(a.landmark[i]);
+  if (established > 0) {
+    unpaired_streak_ = 0;
+  } else if (n >= config_.lost_min_observations) {
+    ++unpaired_streak_;
+  }
+  // Rule 2: the paired observations persistently disagree with the filter.
+  const int paired =
+      static_cast<int>(std::count(a.decision.begin(), a.decision.end(), Decision::kPaired));
+  if (paired > 0 && report->update_ok) {
+    nis_streak_ = report->nis > nis_chi2_(report->nis_dof) ? nis_streak_ + 1 : 0;
+  }
+  const bool unpaired =
+      config_.lost_unpaired_scans > 0 && unpaired_streak_ >= config_.lost_unpaired_scans;
+  if (unpaired) report->landmarks_expected = landmarksInView();
+  const bool rule1 = unpaired && report->landmarks_expected >= config_.lost_min_expected;
+  const bool rule2 = config_.lost_nis_scans > 0 && nis_streak_ >= config_.lost_nis_scans;
+  if (rule1 || rule2) {
+    report->lost_reason =
+        rule1 ? "no established landmark paired for " + std::to_string(unpaired_streak_) +
+                    " scans, " + std::to_string(report->landmarks_expected) + " in view"
+              : "NIS above chi2(2k, " + std::to_string(config_.lost_nis_probability) + ") for " +
+                    std::to_string(nis_streak_) + " scans";
+    discardRecent(report);
+    ++counters_.lost_events;
+    report->became_lost = true;
+    enterLost();
+    return;
+  }
+  // Nothing established paired and nothing established in view: new ground, or a kidnap into a
+  // place the filter takes for new ground. The relocaliser tells them apart: a confident pose in
+  // the established map that the filter's estimate does not cover is a kidnap.
+  if (unpaired) probe(report);
+}
+
+int SlamPipeline::landmarksInView() const {
+  const Eigen::Vector3d sensor = model_.sensorPose(ekf_.pose());
+  const double range =
+      config_.lost_view_range > 0.0 ? config_.lost_view_range : config_.max_observation_range;
+  std::vector<int> near;
+  index_.query(ekf_, sensor.head<2>(), range, &near);
+  int expected = 0;
+  for (const int k : near) {
+    if (recent(ekf_.landmarkIds()[k])) continue;  // they say nothing about being lost
+    const Eigen::Vector2d d = ekf_.landmark(k) - sensor.head<2>();
+    expected += std::abs(wrapAngle(std::atan2(d.y(), d.x()) - sensor.z())) <=
+                0.5 * config_.lost_field_of_view;
+  }
+  return expected;
+}
+
+void SlamPipeline::discardRecent(ScanReport* report) {
+  // Recent landmarks may come from the wrong pose: the kidnap happened at most that long ago.
+  std::vector<LandmarkId> ids;
+  for (const LandmarkId id : ekf_.landmarkIds()) {
+    if (recent(id)) ids.push_back(id);
+  }
+  for (const LandmarkId id : ids) {
+    if (ekf_.removeLandmark(id)) {
+      info_.erase(id);
+      report->removed.push_back(id);
+      ++counters_.discarded_landmarks;
+    }
+  }
+  index_.sync(ekf_);
+}
+
+void SlamPipeline::probe(ScanReport* report) {
+  // The established map only: recent landmarks would explain the scan at the filter's (perhaps
+  // wrong) pose.
+  std::vector<MapLandmark> map = mapLandmarks();
+  map.erase(
+      std::remove_if(map.begin(), map.end(), [this](const MapLandmark& l) { return recent(l.id); }),
+      map.end());
+  if (map.size() < 3) return;
+  relocaliser_->setMap(map);
+  ++counters_.probes;
+  const RelocalisationResult r = callRelocaliser(report);
+  if (!usable(r, report->observations.size())) return;
+  Eigen::Vector3d d = r.pose - ekf_.pose();
+  d.z() = wrapAngle(d.z());
+  const Eigen::Matrix3d S = ekf_.poseCovariance() + r.covariance;
+  if (d.dot(S.ldlt().solve(d)) <= chi2Quantile(kProbeProbability, 3)) return;  // the filter agrees
+  report->lost_reason = "nothing established paired; the relocaliser puts the vehicle " +
+                        std::to_string(d.head<2>().norm()) + " m from the estimate";
+  discardRecent(report);
+  ++counters_.lost_events;
+  report->became_lost = true;
+  applyRelocalisation(r, report);
+}
+
+RelocalisationResult SlamPipeline::callRelocaliser(ScanReport* report) {
+  report->relocalisation_attempted = true;
+  ++counters_.relocalisation_attempts;
+  const auto t0 = std::chrono::steady_clock::now();
+  report->relocalisation =
+      relocaliser_->relocalise(report->observations, model_.sensorOffset(), nullptr);
+  report->relocalisation_s = secondsSince(t0);
+  const RelocalisationResult& r = report->relocalisation;
+  if (r.status == RelocalisationStatus::kAmbiguous) {
+    ++counters_.relocalisations_ambiguous;
+  } else if (!usable(r, report->observations.size())) {
+    ++counters_.relocalisations_not_found;
+  }
+  return r;
+}
+
+bool SlamPipeline::usable(const RelocalisationResult& r, std::size_t n) {
+  return r.status == RelocalisationStatus::kFound && r.pose.allFinite() &&
+         r.covariance.allFinite() && r.landmark.size() == n;
+}
+
+void SlamPipeline::relocaliseScan(ScanReport* report) {
+  report->lost = true;
+  report->association.resize(report->observations.size());
+  const RelocalisationResult r = callRelocaliser(report);
+  if (usable(r, report->observations.size())) {
+    applyRelocalisation(r, report);
+    return;
+  }
+  // Not found for too long (the rule fired wrongly, or the vehicle left the map): tracking
+  // resumes from the dead-reckoned estimate rather than freezing the map forever.
+  if (!pose_unknown_ && config_.lost_max_scans > 0 && ++lost_scans_ >= config_.lost_max_scans) {
+    ++counters_.lost_timeouts;
+    report->lost_reason = "no relocalisation in " + std::to_string(lost_scans_) +
+                          " scans: tracking resumes from the estimate";
+    lost_ = false;
+    unpaired_streak_ = nis_streak_ = 0;
+  }
+}
+
+void SlamPipeline::applyRelocalisation(const RelocalisationResult& r, ScanReport* report) {
+  AssociationResult& a = report->association;
+  a.resize(report->observations.size());
+  for (std::size_t i = 0; i < a.decision.size(); ++i) {
+    if (r.landmark[i] != kNoLandmark && ekf_.contains(r.landmark[i])) a.pair(i, r.landmark[i]);
+  }
+  // The old pose is forgotten; the update with the pairings re-derives it, correlated with the
+  // map as it should be (kRelocalisedPriorInflation).
+  ekf_.replacePose(r.pose, kRelocalisedPriorInflation * r.covariance);
+  applyAssociation(report);
+  if (!report->update_ok) ekf_.replacePose(r.pose, r.covariance);  // uncorrelated, still valid
+  ++counters_.relocalisations;
+  report->relocalised = true;
+  lost_ = false;
+  unpaired_streak_ = nis_streak_ = 0;
 }
 
 void SlamPipeline::setSensorOffset(const Eigen::Vector3d& offset) {
@@ -324,18 +542,32 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
   ++counters_.scans;
   const std::vector<Observation>& obs = report.observations;
   const std::size_t n = obs.size();
+  if (lost_) {
+    // The map is frozen: no association (the associator's state stays as it was), no landmark
+    // added or removed, only the relocaliser.
+    relocaliseScan(&report);
+    return report;
+  }
 
   // Association, on the predicted state.
   index_.sync(ekf_);
-  auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = std::chrono::steady_clock::now();
   {
     const AssociationContext context(ekf_, model_, index_, obs, stamp);
     report.association = associator_->associate(context);
   }
   report.association_s = secondsSince(t0);
-  AssociationResult& result = report.association;
-  report.invalid_decisions = sanitise(n, &result);
+  report.invalid_decisions = sanitise(n, &report.association);
   if (report.invalid_decisions > 0) ++counters_.invalid_associations;
+  applyAssociation(&report);
+  if (relocaliser_) checkLost(&report);
+  return report;
+}
+
+void SlamPipeline::applyAssociation(ScanReport* report) {
+  const std::vector<Observation>& obs = report->observations;
+  const std::size_t n = obs.size();
+  AssociationResult& result = report->association;
   if (mapFrozen()) {
     // The map is used, not rebuilt: what the associator would add or delete is only counted.
     for (Decision& d : result.decision) {
@@ -346,21 +578,20 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
     counters_.frozen_removals += result.remove.size();
     result.remove.clear();
   }
-
-  t0 = std::chrono::steady_clock::now();
+  const auto t0 = std::chrono::steady_clock::now();
   // 1. One batch update with every paired observation (the original measurements).
   pairings_.clear();
   for (std::size_t i = 0; i < n; ++i) {
     if (result.decision[i] == Decision::kPaired)
       pairings_.push_back(Pairing{result.landmark[i], obs[i].z, obs[i].R});
   }
-  report.nis_dof = 2 * static_cast<int>(pairings_.size());
-  report.update_ok = ekf_.update(pairings_, model_, &report.nis);
+  report->nis_dof = 2 * static_cast<int>(pairings_.size());
+  report->update_ok = ekf_.update(pairings_, model_, &report->nis);
   counters_.clamped_corrections = ekf_.correctionClamps();
   counters_.refused_correction_updates = ekf_.correctionRefusals();
-  if (!report.update_ok) {
+  if (!report->update_ok) {
     ++counters_.rejected_updates;
-    report.nis = 0.0;
+    report->nis = 0.0;
   } else {
     for (std::size_t i = 0; i < n; ++i) {
       if (result.decision[i] != Decision::kPaired) continue;
@@ -389,6 +620,7 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
     result.landmark[i] = id;
     LandmarkInfo& info = info_[id];
     info.times_observed = 1;
+    info.created_scan = report->scan;
     if (std::isfinite(obs[i].descriptor)) {
       info.diameter = obs[i].descriptor;
       info.descriptor_count = 1;
@@ -398,13 +630,12 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
   // 3. Removals.
   for (const LandmarkId id : result.remove) {
     if (ekf_.removeLandmark(id)) {
-      report.removed.push_back(id);
+      report->removed.push_back(id);
       info_.erase(id);
     }
   }
   index_.sync(ekf_);
-  report.update_s = secondsSince(t0);
-  return report;
+  report->update_s = secondsSince(t0);
 }
 
 const LandmarkInfo& SlamPipeline::landmarkInfo(LandmarkId id) const {
@@ -519,7 +750,11 @@ std::vector<MapEntry> readMapFile(const std::string& path) {
 
 }  // namespace
 
-void SlamPipeline::loadMap(const std::string& path, bool reset_pose) {
+void SlamPipeline::loadMap(const std::string& path, bool reset_pose, bool unknown_pose) {
+  if (unknown_pose && !relocaliser_) {
+    throw std::runtime_error("map file '" + path +
+                             "': an unknown pose needs a relocaliser (parameter relocaliser)");
+  }
   const std::vector<MapEntry> entries = readMapFile(path);  // throws before any change
   applyPendingMotion();
   Eigen::Vector3d pose = ekf_.pose();
@@ -543,6 +778,11 @@ void SlamPipeline::loadMap(const std::string& path, bool reset_pose) {
   index_.sync(ekf_);
   associator_->reset();
   for (const MapEntry& e : entries) associator_->landmarkLoaded(e.id, e.info.times_observed);
+  lost_ = false;
+  if (unknown_pose) {
+    ++counters_.relocalisation_requests;
+    enterLost(/*pose_unknown=*/true);
+  }
 }
 
 }  // namespace ekf_slam

@@ -9,7 +9,7 @@
 #include <iostream>
 #include <string>
 
-#include "ekf_slam/ros/associator_loader.h"
+#include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/tools/association_problem.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
 

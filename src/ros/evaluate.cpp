@@ -18,6 +18,7 @@
 #include "ekf_slam/core/recording_parameter_source.h"
 #include "ekf_slam/ros/associator_loader.h"
 #include "ekf_slam/ros/ekf_slam_node.h"
+#include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/tools/output_files.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
 
@@ -43,6 +44,7 @@ struct RunSetup {
   sim::World world;
   PipelineConfig config;
   YamlParameterSource associator_params;
+  YamlParameterSource relocaliser_params;
 };
 
 YamlParameterSource pipelineSource(const EvaluateOptions& o, const sim::World& w) {
@@ -197,6 +199,39 @@ std::shared_ptr<DataAssociation> createAssociator(const AssociatorLoader& loader
   return loader.create(name, params);
 }
 
+// Recovery with the relocaliser: runs whose pose error came back under 1 m within 2 s of the
+// kidnap, wrong relocalisations, the time it took, the error after.
+std::string recoveryTable(const Evaluation& e, const std::string& world,
+                          const std::vector<std::string>& shorts) {
+  std::ostringstream md;
+  md << "\nRecovery with " << e.options.relocaliser << " (within 2 s: pose error under "
+     << kRecoveredDistance << " m at most 2 s after the kidnap):\n\n"
+     << "| associator | runs | lost events | relocalisations | wrong | recovered | within 2 s | "
+        "recovery [s] | pose RMSE after [m] |\n|---|---|---|---|---|---|---|---|---|\n";
+  for (const std::string& a : shorts) {
+    const auto rows = select(e, world, a);
+    if (rows.empty()) continue;
+    std::uint64_t lost = 0, relocs = 0, wrong = 0, recovered = 0, fast = 0;
+    std::vector<double> secs, after;
+    for (const EvaluationRow* r : rows) {
+      const RunMetrics& m = r->metrics;
+      lost += m.lost_events;
+      relocs += m.relocalisations;
+      wrong += m.wrong_relocalisations;
+      if (m.recovery_scans >= 0) {
+        ++recovered;
+        fast += m.recovery_s <= 2.0;
+        secs.push_back(m.recovery_s);
+      }
+      after.push_back(m.pose_rmse_after_recovery_m);
+    }
+    md << "| " << a << " | " << rows.size() << " | " << lost << " | " << relocs << " | " << wrong
+       << " | " << recovered << " | " << fast << " (" << format(100.0 * fast / rows.size(), 0)
+       << " %) | " << format(spread(secs), 2) << " | " << format(spread(after), 3) << " |\n";
+  }
+  return md.str();
+}
+
 }  // namespace
 
 // -------------------------------------------------------------------------------------------------
@@ -233,7 +268,10 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
 
   // Everything that can be wrong with names and parameters fails here, before any run.
   AssociatorLoader loader;
+  RelocaliserLoader relocaliser_loader;
   const std::vector<std::string> shorts = associatorShortNames(o);
+  const std::string reloc_short =
+      o.relocaliser.empty() ? "" : shortName(RelocaliserLoader::lookupName(o.relocaliser));
   std::vector<RunSetup> setups;  // world-major, then associator
   for (const std::string& name : e.worlds) {
     const sim::World w = sim::makeWorld(name);
@@ -244,10 +282,14 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
     const PipelineConfig config = readPipelineConfig(pipeline_params);
     pipeline_params.rejectUnread();
     for (std::size_t a = 0; a < o.associators.size(); ++a) {
-      RunSetup s{w, config, associatorSource(o, w, shorts[a])};
+      RunSetup s{w, config, associatorSource(o, w, shorts[a]), YamlParameterSource()};
       const RecordingParameterSource params(s.associator_params, s.associator_params.names());
       createAssociator(loader, o.associators[a], params);  // validates name and parameters
       params.rejectUnread();
+      if (!reloc_short.empty()) {
+        s.relocaliser_params = associatorSource(o, w, reloc_short);
+        relocaliser_loader.create(o.relocaliser, s.relocaliser_params);
+      }
       setups.push_back(std::move(s));
     }
   }
@@ -281,14 +323,17 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
       const RunSetup& setup = setups[i / runs_per_setup];
       try {
         std::shared_ptr<DataAssociation> associator;
+        std::shared_ptr<Relocaliser> relocaliser;
         {
           std::lock_guard<std::mutex> lock(mutex);
           if (!error.empty()) return;
           associator = createAssociator(loader, o.associators[(i / runs_per_setup) % shorts.size()],
                                         setup.associator_params);
+          if (!reloc_short.empty())
+            relocaliser = relocaliser_loader.create(o.relocaliser, setup.relocaliser_params);
         }
-        row.metrics =
-            runSimulation(setup.world, row.seed, setup.config, associator, &row.nees, &row.errors);
+        row.metrics = runSimulation(setup.world, row.seed, setup.config, associator, &row.nees,
+                                    &row.errors, relocaliser);
       } catch (const std::exception& ex) {
         std::lock_guard<std::mutex> lock(mutex);
         if (error.empty()) {
@@ -372,6 +417,7 @@ std::string summaryMarkdown(const Evaluation& e, const std::string& command) {
          << format(100.0 * mc.fractionInBand(), 0) << " % | " << format(spread(us), 1) << " | "
          << format(spread(wall).mean, 2) << " | " << correctionSummary(rows, w) << " |\n";
     }
+    if (!o.relocaliser.empty()) md << recoveryTable(e, world, shorts);
   }
   return md.str();
 }
@@ -386,7 +432,9 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
            "duplicates,pose_rmse_m,heading_rmse_rad,anees,association_us_mean,update_us_mean,"
            "scans,observations,rejected_updates,identity_switches,wall_time_s,"
            "odometry_correction,correction_1_name,correction_1,correction_1_sd,correction_1_true,"
-           "correction_2_name,correction_2,correction_2_sd,correction_2_true\n";
+           "correction_2_name,correction_2,correction_2_sd,correction_2_true,lost_events,"
+           "relocalisations,wrong_relocalisations,recovery_scans,recovery_s,"
+           "pose_rmse_after_recovery_m\n";
     for (const EvaluationRow& r : e.rows) {
       const RunMetrics& m = r.metrics;
       csv << r.world << ',' << r.associator << ',' << r.run << ',' << r.seed << ','
@@ -411,6 +459,14 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
           csv << ",,,,";
         }
       }
+      csv << ',' << m.lost_events << ',' << m.relocalisations << ',' << m.wrong_relocalisations
+          << ',';
+      // Empty when the pose never came back (or there was no kidnap).
+      if (m.recovery_scans >= 0) csv << m.recovery_scans;
+      csv << ',';
+      if (std::isfinite(m.recovery_s)) csv << m.recovery_s;
+      csv << ',';
+      if (std::isfinite(m.pose_rmse_after_recovery_m)) csv << m.pose_rmse_after_recovery_m;
       csv << '\n';
     }
   }
@@ -449,7 +505,7 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
 void printEvaluateUsage(std::ostream& out) {
   out << "usage: evaluate --world NAME[,NAME...] --out DIR [--runs N] [--associators A,B,...]\n"
          "                [--seed FIRST] [--params YAML] [--set NAME=VALUE ...] [--jobs N]\n"
-         "                [--odometry-correction MODE] [--no-progress]\n"
+         "                [--odometry-correction MODE] [--relocaliser NAME] [--no-progress]\n"
          "Runs each associator on the same simulated seeds and scores it against the truth:\n"
          "DIR/results.csv (a row per run), DIR/nees.csv, DIR/summary.md.\n"
          "  NAME       a world (simulate --list), or a prefix with '*' (e.g. 'rrw_noise_*')\n"
@@ -464,7 +520,9 @@ void printEvaluateUsage(std::ostream& out) {
          "  --jobs     parallel runs (default: the number of cores)\n"
          "  --odometry-correction  none, speed_scale, speed_scale_yaw_bias or wheel_factors\n"
          "             (the pipeline's odometry_correction; results.csv gets the final\n"
-         "             estimates, their std devs and the world's true values)\n";
+         "             estimates, their std devs and the world's true values)\n"
+         "  --relocaliser  e.g. ekf_slam/FGCBB: lost-robot recovery in every run, scored in\n"
+         "             results.csv (relocalisations, wrong_relocalisations, recovery_scans, ...)\n";
 }
 
 bool parseEvaluateArguments(const std::vector<std::string>& args, EvaluateOptions* o, bool* help,
@@ -494,8 +552,8 @@ bool parseEvaluateArguments(const std::vector<std::string>& args, EvaluateOption
       continue;
     }
     static const std::vector<std::string> with_value = {
-        "--world", "--worlds", "--out", "--runs", "--associators",        "--associator",
-        "--seed",  "--params", "--set", "--jobs", "--odometry-correction"};
+        "--world", "--worlds", "--out", "--runs", "--associators",         "--associator",
+        "--seed",  "--params", "--set", "--jobs", "--odometry-correction", "--relocaliser"};
     if (std::find(with_value.begin(), with_value.end(), a) == with_value.end()) {
       *error = "unknown argument '" + a + "'";
       return false;
@@ -516,6 +574,8 @@ bool parseEvaluateArguments(const std::vector<std::string>& args, EvaluateOption
       o->params_path = v;
     } else if (a == "--odometry-correction") {
       o->odometry_correction = v;
+    } else if (a == "--relocaliser") {
+      o->relocaliser = v;
     } else if (a == "--runs") {
       if (!number(a, v, 1, &n)) return false;
       o->runs = static_cast<int>(n);

@@ -39,9 +39,9 @@
 #include "ekf_slam/core/simulated_run.h"
 #include "ekf_slam/core/slam_pipeline.h"
 #include "ekf_slam/core/trajectory_metrics.h"
-#include "ekf_slam/ros/associator_loader.h"
 #include "ekf_slam/ros/conversions.h"
 #include "ekf_slam/ros/ekf_slam_node.h"
+#include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/tools/association_problem.h"
 #include "ekf_slam/tools/output_files.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
@@ -350,6 +350,26 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   assoc_params.rejectUnread();
   SlamPipeline pipeline(config, capturing);
 
+  // Relocaliser (recovery), configured from its own section like the associator.
+  const std::string relocaliser = o.relocaliser.empty() ? config.relocaliser : o.relocaliser;
+  RelocaliserLoader relocaliser_loader;
+  std::string relocaliser_short;
+  if (!relocaliser.empty()) {
+    const std::string reloc_lookup = RelocaliserLoader::lookupName(relocaliser);
+    relocaliser_short = reloc_lookup.substr(reloc_lookup.rfind('/') + 1);
+    const YamlParameterSource reloc_params =
+        o.params_path.empty()
+            ? YamlParameterSource()
+            : YamlParameterSource::fromFile(o.params_path, relocaliser_short,
+                                            YamlParameterSource::Scope::kSectionOnly);
+    pipeline.setRelocaliser(relocaliser_loader.create(reloc_lookup, reloc_params));
+  }
+  if (o.unknown_pose && o.load_map.empty())
+    throw std::runtime_error("--unknown-pose needs --load-map FILE");
+  if (o.unknown_pose && relocaliser.empty())
+    throw std::runtime_error("--unknown-pose needs a relocaliser (--relocaliser NAME)");
+  if (!o.load_map.empty()) pipeline.loadMap(o.load_map, /*reset_pose=*/true, o.unknown_pose);
+
   makeDirectory(o.out_dir);
 
   // Bag reading is timed apart from the processing.
@@ -393,8 +413,33 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   auto scorer = std::make_unique<RunScorer>();
   std::vector<std::int64_t> truth;
 
+  // Relocalisation events, for metrics.json.
+  nlohmann::json relocalisation_events = nlohmann::json::array();
+  std::vector<double> relocalisation_us;
+
   // One processed scan: bookkeeping and output rows.
   const auto record = [&](const ScanReport& r, const ObservationsInput* input) {
+    if (r.became_lost) {
+      log << "lost at scan " << r.scan << " (stamp " << std::fixed << r.stamp << std::defaultfloat
+          << "): " << r.lost_reason << "\n";
+    }
+    if (r.lost && !pipeline.lost() && !r.relocalised)
+      log << "scan " << r.scan << ": " << r.lost_reason << "\n";
+    if (r.relocalisation_attempted) {
+      relocalisation_us.push_back(1e6 * r.relocalisation_s);
+      if (r.relocalised) {
+        const RelocalisationResult& x = r.relocalisation;
+        log << "relocalised at scan " << r.scan << ": pose " << x.pose.transpose() << ", "
+            << x.hypothesis_size << " pairings\n";
+        relocalisation_events.push_back({{"scan", r.scan},
+                                         {"stamp", r.stamp},
+                                         {"pose", {x.pose.x(), x.pose.y(), x.pose.z()}},
+                                         {"pairings", x.hypothesis_size},
+                                         {"joint_mahalanobis", number(x.joint_mahalanobis)},
+                                         {"nodes", x.nodes},
+                                         {"time_us", 1e6 * r.relocalisation_s}});
+      }
+    }
     extraction_s += r.extraction_s;
     association_s += r.association_s;
     update_s += r.update_s;
@@ -424,6 +469,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
       const bool have_pose = truePoseAt(bag.ground_truth, r.stamp, &true_pose);
       scorer->addScan(r, truth, x, P, have_pose ? &true_pose : nullptr);
     }
+    if (o.on_scan) o.on_scan(r, pipeline);
     if (o.dump_problem_scan && r.scan == *o.dump_problem_scan) {
       capturing->disarm();
       // No associate() call (no observations): the state is the pre-association one anyway.
@@ -461,6 +507,11 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
           break;
         case InputSequencer<InputRef>::Kind::kScan:
           if (o.dump_problem_scan && scans_done == *o.dump_problem_scan) capturing->arm();
+          for (const OfflineOptions::Kidnap& k : o.kidnaps) {
+            if (k.scan != scans_done) continue;
+            pipeline.injectPoseJump(k.jump);
+            log << "kidnap before scan " << k.scan << ": pose jump " << k.jump.transpose() << "\n";
+          }
           if (item.scan.observations) {
             const ObservationsInput& s = bag.observation_sets[item.scan.index];
             record(pipeline.processObservations(s.stamp, s.observations), &s);
@@ -545,6 +596,9 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
          << ',' << info.diameter << ',' << info.times_observed << '\n';
     }
   }
+
+  // The final map in the ~save_map format, so that runs chain (--load-map).
+  pipeline.saveMap(o.out_dir + "/map.txt");
 
   // --- ground truth (simulated bags), for the picture ------------------------------------------
   if (!bag.ground_truth.empty()) {
@@ -660,7 +714,20 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                    {"invalid_stamps", invalid_stamps},
                    {"held_stamps", sequencer.counters().held},
                    {"dropped_out_of_range", sequencer.counters().dropped_out_of_range},
-                   {"time_jumps", time_jumps}};
+                   {"time_jumps", time_jumps},
+                   {"lost_events", k.lost_events},
+                   {"relocalisation_requests", k.relocalisation_requests},
+                   {"relocalisation_attempts", k.relocalisation_attempts},
+                   {"probes", k.probes},
+                   {"lost_timeouts", k.lost_timeouts},
+                   {"relocalisations", k.relocalisations},
+                   {"relocalisations_ambiguous", k.relocalisations_ambiguous},
+                   {"relocalisations_not_found", k.relocalisations_not_found},
+                   {"discarded_landmarks", k.discarded_landmarks}};
+  j["relocaliser"] = relocaliser_short;
+  j["lost_at_end"] = pipeline.lost();
+  j["relocalisation_us_median"] = number(quantile(relocalisation_us, 0.5));
+  j["relocalisation_events"] = relocalisation_events;
   if (score) {
     const RunMetrics m = scorer->metrics(&pipeline);
     j["truth"] = {{"accuracy", m.counts.accuracy()},
@@ -727,6 +794,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   s.landmarks = ekf.numLandmarks();
   s.wall_time_s = wall_time_s;
   s.gps_rmse_m = bag.gps.empty() ? -1.0 : gps_error.rmse_aligned;
+  s.relocalisations = k.relocalisations;
   s.metrics_json = text;
   return s;
 }
@@ -736,11 +804,13 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
 void printOfflineUsage(std::ostream& out, const std::string& program) {
   out << "usage: " << program
       << " --bag FILE --out DIR [--params YAML] [--associator NAME] [--dump-problem SCAN]\n"
+         "       [--relocaliser NAME] [--load-map FILE [--unknown-pose]]\n"
+         "       [--kidnap SCAN:DX,DY,DYAW ...]\n"
          "       [--no-plot] [--no-progress] [--scan-topic T] [--odom-topic T]\n"
          "       [--observations-topic T] [--gps-topic T] [--tf-static-topic T]\n"
          "       [--ground-truth-topic T] [--true-map-topic T] [--base-frame F]\n"
          "Replays a bag through the SLAM pipeline (no roscore) and writes trajectory.csv,\n"
-         "landmarks.csv, associations.csv, gps.csv, metrics.json and map.png to DIR.\n"
+         "landmarks.csv, associations.csv, gps.csv, metrics.json, map.txt and map.png to DIR.\n"
          "A simulated bag (observations with truth ids, /ground_truth) is also scored against\n"
          "its truth: metrics.json 'truth' (accuracy, precision, recall, F1, spurious landmarks,\n"
          "pose RMSE, ANEES).\n"
@@ -750,7 +820,13 @@ void printOfflineUsage(std::ostream& out, const std::string& program) {
       << AssociatorLoader::kDefault
       << ")\n"
          "  SCAN: 0-based scan whose association problem goes to DIR/problem_SCAN.json\n"
-         "        (replay it with replay_association)\n";
+         "        (replay it with replay_association)\n"
+         "  --relocaliser  e.g. FGCBB: lost-robot recovery (default: the YAML's 'relocaliser',\n"
+         "        else off); its parameters come from its section of the YAML\n"
+         "  --load-map     a map.txt (~save_map format) to start from; --unknown-pose: the pose\n"
+         "        in it is unknown, the run starts lost and relocalises globally\n"
+         "  --kidnap       before 0-based scan SCAN, jump the pose estimate by DX,DY [m] (map\n"
+         "        frame) and DYAW [rad] without telling the filter (repeatable)\n";
 }
 
 bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions* o, bool* help,
@@ -770,10 +846,16 @@ bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions*
       o->progress = false;
       continue;
     }
+    if (a == "--unknown-pose") {
+      o->unknown_pose = true;
+      continue;
+    }
     std::string* target = a == "--bag"                  ? &o->bag_path
                           : a == "--out"                ? &o->out_dir
                           : a == "--params"             ? &o->params_path
                           : a == "--associator"         ? &o->associator
+                          : a == "--relocaliser"        ? &o->relocaliser
+                          : a == "--load-map"           ? &o->load_map
                           : a == "--scan-topic"         ? &o->scan_topic
                           : a == "--odom-topic"         ? &o->odom_topic
                           : a == "--observations-topic" ? &o->observations_topic
@@ -784,7 +866,8 @@ bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions*
                           : a == "--base-frame"         ? &o->base_frame
                                                         : nullptr;
     const bool dump = a == "--dump-problem";
-    if (target == nullptr && !dump) {
+    const bool kidnap = a == "--kidnap";
+    if (target == nullptr && !dump && !kidnap) {
       *error = "unknown argument '" + a + "'";
       return false;
     }
@@ -793,7 +876,22 @@ bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions*
       return false;
     }
     const std::string& v = args[++i];
-    if (dump) {
+    if (kidnap) {
+      OfflineOptions::Kidnap k;
+      unsigned long scan = 0;
+      double dx = 0, dy = 0, dyaw = 0;
+      int used = 0;
+      if (std::sscanf(v.c_str(), "%lu:%lf,%lf,%lf%n", &scan, &dx, &dy, &dyaw, &used) != 4 ||
+          used != static_cast<int>(v.size()) || v[0] == '-' ||
+          scan > std::numeric_limits<std::uint32_t>::max() ||
+          !Eigen::Vector3d(dx, dy, dyaw).allFinite()) {
+        *error = "--kidnap needs SCAN:DX,DY,DYAW (e.g. 2000:30,-20,1.5), got '" + v + "'";
+        return false;
+      }
+      k.scan = static_cast<std::uint32_t>(scan);
+      k.jump = Eigen::Vector3d(dx, dy, dyaw);
+      o->kidnaps.push_back(k);
+    } else if (dump) {
       char* end = nullptr;
       errno = 0;
       const unsigned long scan = std::strtoul(v.c_str(), &end, 10);
@@ -833,7 +931,7 @@ int offlineMain(int argc, char** argv) {
     const OfflineSummary s = runOffline(options, std::cerr);
     std::cout << s.metrics_json;
     std::cout << "wrote " << options.out_dir
-              << "/{trajectory,landmarks,associations}.csv, metrics.json"
+              << "/{trajectory,landmarks,associations}.csv, map.txt, metrics.json"
               << (options.plot ? ", map.png" : "") << "\n";
   } catch (const std::exception& e) {
     std::cerr << program << ": " << e.what() << "\n";

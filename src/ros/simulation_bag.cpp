@@ -41,8 +41,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Variance of what a planar vehicle cannot do (z, roll, pitch, lateral speed, their rates): known
 // to be zero, so small but not singular (as victoria_park_to_bag writes it).
 constexpr double kPlanarVariance = 1e-6;
-// Associators whose world-dependent parameters go into the YAML (DJNN first: the default).
-const char* const kAssociators[] = {"DJNN", "NN", "JCBB", "NNJCBB", "Hungarian"};
+// Plugins (associators, relocalisers) whose world-dependent parameters go into the YAML (DJNN
+// first: the default).
+const char* const kAssociators[] = {"DJNN", "NN", "JCBB", "NNJCBB", "Hungarian", "FGCBB", "GCBB"};
 
 ros::Time bagStamp(double sim_stamp) { return ros::Time(sim_stamp + sim::kStampOffset); }
 

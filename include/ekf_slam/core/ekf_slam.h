@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 
+#include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/motion_models.h"
 #include "ekf_slam/core/observation_model.h"
 #include "ekf_slam/core/odometry_correction.h"
@@ -101,6 +102,17 @@ class EkfSlam {
   /// std::invalid_argument on inconsistent sizes.
   void setState(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance,
                 const std::vector<LandmarkId>& ids);
+
+  /// Moves the pose estimate without touching any covariance: an unmodelled jump (a kidnap).
+  void setPose(const Eigen::Vector3d& pose) {
+    x_.head<3>() = pose;
+    x_(2) = wrapAngle(x_(2));
+  }
+
+  /// Replaces the pose and its covariance and zeroes the pose/map cross-covariance (the map is
+  /// untouched): the pose becomes independent of the map, e.g. before re-deriving it from a
+  /// relocalisation's pairings. O(n).
+  void replacePose(const Eigen::Vector3d& pose, const Eigen::Matrix3d& pose_cov);
 
   /// Deletes a landmark's rows and columns. Returns false if the id is unknown.
   bool removeLandmark(LandmarkId id);

@@ -41,9 +41,10 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world);
 /// readPipelineConfig(pipelineParametersFor(world)).
 PipelineConfig pipelineConfigFor(const World& world);
 
-/// Parameters of associator `short_name` ("DJNN", "NN", ...) that depend on the world: DJNN's
-/// sensor_range and field_of_view (the local region, eq. 10: for a whole-map world a range that
-/// covers the whole area); empty for associators without world-dependent parameters.
+/// Parameters of plugin `short_name` ("DJNN", "NN", "FGCBB", ...) that depend on the world:
+/// DJNN's sensor_range and field_of_view (the local region, eq. 10: for a whole-map world a range
+/// that covers the whole area), the relocalisers' sensor_range; empty for plugins without
+/// world-dependent parameters.
 std::map<std::string, std::string> associatorParametersFor(const World& world,
                                                            const std::string& short_name);
 
@@ -71,6 +72,17 @@ struct RunMetrics {
   std::vector<std::string> correction_names;
   Eigen::Vector2d correction = Eigen::Vector2d::Zero();
   Eigen::Vector2d correction_sigma = Eigen::Vector2d::Zero();
+
+  // Lost-robot recovery (docs/relocalisation.md); zero / NaN / -1 without a relocaliser.
+  std::uint64_t lost_events = 0;            ///< PipelineCounters::lost_events
+  std::uint64_t relocalisations = 0;        ///< relocalisations applied
+  std::uint64_t wrong_relocalisations = 0;  ///< of them, kWrongRelocalisation* off the truth
+  /// Scans from the first kidnap until the position error is back under 1 m; -1: never (or no
+  /// kidnap).
+  std::int64_t recovery_scans = -1;
+  double recovery_s = std::numeric_limits<double>::quiet_NaN();  ///< the same in seconds
+  /// Position RMSE over the scans from the recovery on (NaN: never recovered).
+  double pose_rmse_after_recovery_m = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// The true associations, for simulated runs (evaluation side, not an estimator): pairs each
@@ -92,6 +104,13 @@ class KnownAssociation : public DataAssociation {
   std::map<LandmarkId, LandmarkId> landmark_of_;  // truth id -> map landmark id
 };
 
+/// A relocalisation is wrong when its pose is farther than this from the true pose [m] ...
+constexpr double kWrongRelocalisationDistance = 2.0;
+/// ... or turned more than this [rad].
+constexpr double kWrongRelocalisationAngle = 0.2;
+/// The pose counts as recovered after a kidnap once its position error is below this [m].
+constexpr double kRecoveredDistance = 1.0;
+
 /// Scores a run scan by scan: the association against the observations' truth ids, the pose
 /// against the true pose at the scan.
 class RunScorer {
@@ -107,6 +126,9 @@ class RunScorer {
   void addScan(const ScanReport& report, const std::vector<LandmarkId>& truth,
                const Eigen::Vector3d& estimate, const Eigen::Matrix3d& cov,
                const Eigen::Vector3d* true_pose);
+
+  /// The vehicle was kidnapped since the last scan: recovery is timed from the next scan.
+  void markKidnap();
 
   /// Everything so far. `pipeline` supplies the final map size and counters (may be null).
   RunMetrics metrics(const SlamPipeline* pipeline) const;
@@ -127,15 +149,25 @@ class RunScorer {
   double association_s_ = 0.0, update_s_ = 0.0;
   std::vector<double> nees_;
   std::vector<Eigen::Vector2d> errors_;
+  // Recovery.
+  bool kidnap_pending_ = false, kidnapped_ = false, recovered_ = false;
+  std::uint64_t kidnap_scan_ = 0;
+  double kidnap_stamp_ = 0.0;
+  std::int64_t recovery_scans_ = -1;
+  double recovery_s_ = std::numeric_limits<double>::quiet_NaN();
+  double after_sum_ = 0.0;
+  std::uint64_t after_n_ = 0, relocalisations_ = 0, wrong_relocalisations_ = 0;
 };
 
 /// Runs world + seed through a fresh SlamPipeline with `associator` (configured already; it is
 /// reset first) and scores it. Stamps carry sim::kStampOffset. `nees_per_scan` and
-/// `errors_per_scan`, when given, receive RunScorer::neesPerScan() and errorsPerScan(). Throws
-/// what SlamPipeline and Simulation throw.
+/// `errors_per_scan`, when given, receive RunScorer::neesPerScan() and errorsPerScan().
+/// `relocaliser` (configured; may be null) switches lost-robot recovery on; the world's kidnaps
+/// are marked for the recovery metrics. Throws what SlamPipeline and Simulation throw.
 RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const PipelineConfig& config,
                          std::shared_ptr<DataAssociation> associator,
                          std::vector<double>* nees_per_scan = nullptr,
-                         std::vector<Eigen::Vector2d>* errors_per_scan = nullptr);
+                         std::vector<Eigen::Vector2d>* errors_per_scan = nullptr,
+                         std::shared_ptr<Relocaliser> relocaliser = nullptr);
 
 }  // namespace ekf_slam

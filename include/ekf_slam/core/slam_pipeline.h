@@ -34,12 +34,14 @@
 
 #include <Eigen/Core>
 
+#include "ekf_slam/core/chi2.h"
 #include "ekf_slam/core/data_association.h"
 #include "ekf_slam/core/ekf_slam.h"
 #include "ekf_slam/core/landmark_index.h"
 #include "ekf_slam/core/motion_models.h"
 #include "ekf_slam/core/observation_model.h"
 #include "ekf_slam/core/odometry_correction.h"
+#include "ekf_slam/core/relocalisation/relocaliser.h"
 #include "ekf_slam/core/tree_extractor.h"
 
 namespace ekf_slam {
@@ -76,6 +78,30 @@ struct PipelineConfig {
   double max_latency = 0.5;
   double time_jump_threshold = 1.0;
 
+  /// Lost-robot recovery (docs/relocalisation.md). The shells load the plugin named here and
+  /// hand it over with SlamPipeline::setRelocaliser; empty: off (the filter never goes lost).
+  std::string relocaliser;
+  /// Lost rule 1: this many consecutive scans with >= lost_min_observations observations, yet
+  /// not one paired with an established (not recent) landmark, and >= lost_min_expected map
+  /// landmarks in view (within lost_view_range of the sensor, 0 = max_observation_range, and inside
+  /// lost_field_of_view about its x axis). With fewer in view the relocaliser probes instead
+  /// (docs/relocalisation.md). 0 disables the rule.
+  int lost_unpaired_scans = 5;
+  int lost_min_observations = 3;
+  int lost_min_expected = 3;
+  /// Landmarks created fewer than this many scans ago are "recent": pairing them does not count
+  /// for rule 1, they are not "in view", and they are discarded when the pipeline goes lost.
+  int lost_recent_scans = 20;
+  double lost_view_range = 0.0;
+  double lost_field_of_view = M_PI;
+  /// Lost rule 2: this many consecutive scans whose batch NIS exceeds chi2(2k,
+  /// lost_nis_probability) (k paired observations). 0 disables the rule.
+  int lost_nis_scans = 5;
+  /// Lost this many scans without a relocalisation: tracking resumes from the dead-reckoned
+  /// estimate (the map unfreezes). 0: stay lost until found (localisation in a saved map).
+  int lost_max_scans = 50;
+  double lost_nis_probability = 0.999;
+
   /// Throws ParameterError naming the first invalid setting.
   void validate() const;
 };
@@ -92,6 +118,7 @@ struct LandmarkInfo {
   double diameter = std::numeric_limits<double>::quiet_NaN();  ///< running mean descriptor
   std::uint32_t times_observed = 0;                            ///< scans it was paired in
   int descriptor_count = 0;
+  std::int64_t created_scan = -1;  ///< scan that initialised it; -1: loaded from a map file
 };
 
 /// What happened in one scan.
@@ -113,25 +140,48 @@ struct ScanReport {
   double nis = 0.0;  ///< of the batch update
   int nis_dof = 0;
   bool update_ok = true;  ///< false when the EKF rejected the update
+
+  // Lost-robot recovery.
+  bool lost = false;         ///< the filter was lost at this scan: relocalised, not associated
+  bool became_lost = false;  ///< the lost rule fired after this scan (map frozen from now on)
+  std::string lost_reason;   ///< which rule, for logs
+  bool relocalisation_attempted = false;
+  bool relocalised = false;             ///< found: pose replaced, paired, tracking resumes
+  RelocalisationResult relocalisation;  ///< of the attempt
+  double relocalisation_s = 0.0;        ///< wall time of the relocaliser call
+  int landmarks_expected = 0;           ///< map landmarks in view (lost rule 1), when tracking
 };
 
 /// Counters of inputs that needed handling (reported by the shells as warnings).
 struct PipelineCounters {
   std::uint64_t odometry = 0;
   std::uint64_t scans = 0;
-  std::uint64_t odometry_gaps = 0;           ///< gaps longer than max_odometry_gap
-  std::uint64_t rejected_odometry = 0;       ///< non-finite values
-  std::uint64_t rejected_updates = 0;        ///< EKF refused the batch update
-  std::uint64_t invalid_ranges = 0;          ///< NaN / negative beams seen by the extractor
-  std::uint64_t scans_before_odometry = 0;   ///< processed with no odometry yet (no prediction)
-  std::uint64_t late_odometry = 0;           ///< older than the filter time: skipped
-  std::uint64_t late_scans = 0;              ///< older than the filter time: used at time()
-  std::uint64_t empty_scans = 0;             ///< no beams, no valid beam or a bad angle
-  std::uint64_t invalid_observations = 0;    ///< non-finite observations dropped
-  std::uint64_t invalid_associations = 0;    ///< associator results fixed up (bad size, bad id)
-  std::uint64_t failed_initialisations = 0;  ///< kNew the EKF could not initialise
-  std::uint64_t invalid_stamps = 0;          ///< scans with a non-finite stamp (used at time())
-  std::uint64_t resets = 0;                  ///< reset() calls
+  std::uint64_t odometry_gaps = 0;            ///< gaps longer than max_odometry_gap
+  std::uint64_t rejected_odometry = 0;        ///< non-finite values
+  std::uint64_t rejected_updates = 0;         ///< EKF refused the batch update
+  std::uint64_t invalid_ranges = 0;           ///< NaN / negative beams seen by the extractor
+  std::uint64_t scans_before_odometry = 0;    ///< processed with no odometry yet (no prediction)
+  std::uint64_t late_odometry = 0;            ///< older than the filter time: skipped
+  std::uint64_t late_scans = 0;               ///< older than the filter time: used at time()
+  std::uint64_t empty_scans = 0;              ///< no beams, no valid beam or a bad angle
+  std::uint64_t invalid_observations = 0;     ///< non-finite observations dropped
+  std::uint64_t invalid_associations = 0;     ///< associator results fixed up (bad size, bad id)
+  std::uint64_t failed_initialisations = 0;   ///< kNew the EKF could not initialise
+  std::uint64_t invalid_stamps = 0;           ///< scans with a non-finite stamp (used at time())
+  std::uint64_t resets = 0;                   ///< reset() calls
+  std::uint64_t lost_events = 0;              ///< the lost rule fired
+  std::uint64_t relocalisation_requests = 0;  ///< requestRelocalisation() / loadMap(unknown pose)
+  std::uint64_t relocalisation_attempts = 0;  ///< relocaliser calls (while lost, and probes)
+  /// Relocaliser calls while tracking: rule 1's streak with no landmark in view (new ground, or a
+  /// kidnap the filter takes for new ground).
+  std::uint64_t probes = 0;
+  std::uint64_t relocalisations = 0;  ///< found: the pose was replaced
+  std::uint64_t relocalisations_ambiguous = 0;
+  std::uint64_t lost_timeouts = 0;  ///< lost_max_scans reached: tracking resumed unrelocalised
+  std::uint64_t relocalisations_not_found = 0;
+  /// Recent landmarks (lost_recent_scans) removed when the pipeline went lost (they may come
+  /// from a pose now taken to be wrong).
+  std::uint64_t discarded_landmarks = 0;
   /// Localization mode: new landmarks and removals the associator asked for, not applied.
   std::uint64_t frozen_new = 0;
   std::uint64_t frozen_removals = 0;
@@ -147,9 +197,23 @@ class SlamPipeline {
   /// Throws ParameterError on an invalid config. The associator must be configured already.
   SlamPipeline(const PipelineConfig& config, std::shared_ptr<DataAssociation> associator);
 
-  /// Back to the initial pose with an empty map and no time; the associator is reset too.
-  /// Counters and the scan number keep counting (they describe the whole run).
+  /// Back to the initial pose with an empty map and no time, not lost; the associator is reset
+  /// too. Counters and the scan number keep counting (they describe the whole run).
   void reset();
+
+  // --- lost-robot recovery (docs/relocalisation.md) -----------------------------------------
+  /// The relocaliser (configured already) used while lost; null switches recovery off.
+  void setRelocaliser(std::shared_ptr<Relocaliser> relocaliser);
+  const Relocaliser* relocaliser() const { return relocaliser_.get(); }
+  /// Forces the lost state: the map freezes and every following scan is relocalised globally
+  /// until one is found. Returns false (nothing changes) without a relocaliser.
+  bool requestRelocalisation();
+  /// Moves the pose estimate by `delta` (map frame x, y, yaw) without telling the covariance:
+  /// what an unmodelled jump of the odometry (a kidnap) does to the filter. For the offline
+  /// runner's --kidnap and tests.
+  void injectPoseJump(const Eigen::Vector3d& delta);
+  /// True from the moment the lost rule fires (or a request) until a relocalisation succeeds.
+  bool lost() const { return lost_; }
 
   /// Sensor pose on base_link (x, y, yaw), e.g. from tf. Used from the next scan on.
   void setSensorOffset(const Eigen::Vector3d& offset);
@@ -181,6 +245,8 @@ class SlamPipeline {
   const RangeBearingModel& observationModel() const { return model_; }
   /// The odometry correction model (mode none: no states). Its estimates: ekf().correction().
   const OdometryCorrection& odometryCorrection() const { return correction_; }
+  /// The map as a relocaliser takes it (ids, positions, marginal covariances, diameters).
+  std::vector<MapLandmark> mapLandmarks() const;
   /// Bookkeeping of a landmark (a default LandmarkInfo for an unknown id).
   const LandmarkInfo& landmarkInfo(LandmarkId id) const;
   const PipelineCounters& counters() const { return counters_; }
@@ -199,9 +265,11 @@ class SlamPipeline {
   /// Replaces the map with a saved one; loaded landmarks keep their ids and covariances and are
   /// uncorrelated with the pose and each other. The pose keeps its estimate and covariance
   /// unless reset_pose (then: the initial pose). The associator is reset and told of every loaded
-  /// landmark with its times_observed (DJNN keeps them as established landmarks). Throws
-  /// std::runtime_error naming the file and line; the state is unchanged on error.
-  void loadMap(const std::string& path, bool reset_pose);
+  /// landmark with its times_observed (DJNN keeps them as established landmarks). With
+  /// unknown_pose the pipeline starts lost: the next scans are relocalised globally in the loaded
+  /// map (needs a relocaliser). Throws std::runtime_error naming the file and line (or the
+  /// missing relocaliser); the state is unchanged on error.
+  void loadMap(const std::string& path, bool reset_pose, bool unknown_pose = false);
 
  private:
   /// Advances the pending motion from time_ to `stamp` with the held odometry (no EKF work).
@@ -219,6 +287,28 @@ class SlamPipeline {
                                 ScanReport report);
   /// Makes a result usable whatever the associator returned; returns the number of fixes.
   int sanitise(std::size_t n, AssociationResult* result);
+  /// EKF update with the paired observations, then new landmarks, then removals.
+  void applyAssociation(ScanReport* report);
+  /// While lost: one relocaliser call; on success the pose is replaced and the pairings applied.
+  void relocaliseScan(ScanReport* report);
+  /// The lost rules after a tracked scan.
+  void checkLost(ScanReport* report);
+  /// Created fewer than lost_recent_scans scans ago (loaded landmarks never are).
+  bool recent(LandmarkId id) const;
+  /// Established (not recent) map landmarks in view of the sensor at the estimated pose.
+  int landmarksInView() const;
+  /// Removes the recent landmarks (they may come from a wrong pose).
+  void discardRecent(ScanReport* report);
+  /// Unpaired scans with nothing in view: relocalises without freezing the map, and applies the
+  /// result only when the filter's estimate does not cover it (a kidnap into "new ground").
+  void probe(ScanReport* report);
+  RelocalisationResult callRelocaliser(ScanReport* report);
+  static bool usable(const RelocalisationResult& r, std::size_t n);
+  /// Replaces the pose (docs/relocalisation.md) and updates with the relocaliser's pairings.
+  void applyRelocalisation(const RelocalisationResult& r, ScanReport* report);
+  /// Freezes the map and hands it to the relocaliser. pose_unknown: no lost_max_scans timeout
+  /// (the estimate means nothing).
+  void enterLost(bool pose_unknown = false);
 
   PipelineConfig config_;
   std::shared_ptr<DataAssociation> associator_;
@@ -244,6 +334,15 @@ class SlamPipeline {
 
   // Per-scan workspaces (kept to avoid reallocating).
   std::vector<Pairing> pairings_;
+
+  // Lost-robot recovery.
+  std::shared_ptr<Relocaliser> relocaliser_;
+  bool lost_ = false;
+  int lost_scans_ = 0;  // relocalisation attempts since lost
+  bool pose_unknown_ = false;
+  int unpaired_streak_ = 0;
+  int nis_streak_ = 0;
+  Chi2Table nis_chi2_;
 };
 
 }  // namespace ekf_slam

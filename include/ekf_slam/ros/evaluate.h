@@ -8,7 +8,10 @@
 // SlamPipeline fed a sim::Simulation (runSimulation, the same numbers ekf_slam_offline reports
 // on the simulated bag of that world and seed). Runs go to a pool of --jobs threads. Writes
 // DIR/results.csv (one row per run and associator), DIR/nees.csv (the Monte Carlo average NEES
-// per scan) and DIR/summary.md (mean and spread per world and associator).
+// per scan) and DIR/summary.md (mean and spread per world and associator). With --relocaliser
+// every run recovers from a lost pose (docs/relocalisation.md), and results.csv gains
+// lost_events, relocalisations, wrong_relocalisations, recovery_scans (empty: never),
+// recovery_s and pose_rmse_after_recovery_m.
 #pragma once
 
 #include <cstdint>
@@ -36,6 +39,10 @@ struct EvaluateOptions {
   /// --set NAME=VALUE (a pipeline parameter), --set ALGO/NAME=VALUE (associator ALGO, e.g.
   /// DJNN), --set '*/NAME=VALUE' (every associator). Applied last.
   std::vector<std::pair<std::string, std::string>> overrides;
+  /// Relocaliser plugin ("FGCBB"): lost-robot recovery in every run, scored in the recovery
+  /// columns of results.csv; empty: none. Its parameters: its YAML section, the world's
+  /// (sim::associatorParametersFor), then --set NAME/...
+  std::string relocaliser;
   int jobs = 0;  ///< worker threads; 0 = the number of cores
   /// --odometry-correction MODE: the pipeline's odometry_correction (empty: the YAML's or none).
   std::string odometry_correction;

@@ -4,10 +4,17 @@
 // docs/victoria_park.md.
 //
 //   rosrun ekf_slam ekf_slam_offline --bag FILE --out DIR [--params YAML] [--associator NAME]
+//                                    [--relocaliser NAME] [--load-map FILE [--unknown-pose]]
+//                                    [--kidnap SCAN:DX,DY,DYAW ...]
 //                                    [--dump-problem SCAN] [--no-plot] [--no-progress]
 //                                    [--scan-topic T] [--odom-topic T] [--observations-topic T]
 //                                    [--gps-topic T] [--ground-truth-topic T]
 //                                    [--true-map-topic T] [--base-frame F]
+//
+// Every run also writes its final map as DIR/map.txt in the ~save_map format
+// (SlamPipeline::saveMap), so that runs chain: --load-map DIR/map.txt. With a relocaliser
+// (--relocaliser or the YAML's `relocaliser`) the pipeline recovers from a lost pose
+// (docs/relocalisation.md); metrics.json then lists every relocalisation.
 //
 // When every observation of the bag carries a truth id (bags written by `simulate`), the run is
 // scored against the truth as `evaluate` scores it (RunScorer): metrics.json gets a "truth"
@@ -15,10 +22,15 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
+
+#include "ekf_slam/core/slam_pipeline.h"
 
 namespace ekf_slam {
 
@@ -30,6 +42,19 @@ struct OfflineOptions {
   std::string params_path;
   /// Plugin name ("DJNN" or "ekf_slam/DJNN"); empty: the YAML's `associator`, else the default.
   std::string associator;
+  /// Relocaliser plugin ("FGCBB" or "ekf_slam/FGCBB"); empty: the YAML's `relocaliser`, else
+  /// none (recovery off).
+  std::string relocaliser;
+  /// A map file (~save_map format) loaded before the first scan; empty: start with no map.
+  std::string load_map;
+  /// With load_map: the pose in that map is unknown, the run starts lost (needs a relocaliser).
+  bool unknown_pose = false;
+  /// Pose jumps injected before a scan (SlamPipeline::injectPoseJump), to test recovery.
+  struct Kidnap {
+    std::uint32_t scan = 0;                          ///< 0-based processed scan
+    Eigen::Vector3d jump = Eigen::Vector3d::Zero();  ///< map frame dx, dy [m], dyaw [rad]
+  };
+  std::vector<Kidnap> kidnaps;
   /// 0-based scan whose association problem is written to DIR/problem_<SCAN>.json.
   std::optional<std::uint32_t> dump_problem_scan;
   std::string scan_topic = "/scan";
@@ -42,6 +67,9 @@ struct OfflineOptions {
   /// ekf_slam/LandmarkArray, latched, with the true landmarks (simulated bags): for the picture.
   std::string true_map_topic = "/true_map";
   std::string base_frame = "base_link";
+  /// Called after every processed scan (not from the command line: for tools built on the
+  /// runner, e.g. relocalisation_experiment).
+  std::function<void(const ScanReport&, const SlamPipeline&)> on_scan;
   bool plot = true;      ///< run scripts/plot_map.py
   bool progress = true;  ///< progress bar, only when stderr is a terminal
 };
@@ -53,8 +81,9 @@ struct OfflineSummary {
   std::uint64_t odometry = 0;
   std::size_t landmarks = 0;
   double wall_time_s = 0.0;
-  double gps_rmse_m = -1.0;  ///< < 0 without GPS
-  std::string metrics_json;  ///< the text of metrics.json
+  double gps_rmse_m = -1.0;           ///< < 0 without GPS
+  std::uint64_t relocalisations = 0;  ///< PipelineCounters::relocalisations
+  std::string metrics_json;           ///< the text of metrics.json
 };
 
 /// Command line (without the program name). Returns false and sets *error on bad arguments;
@@ -64,7 +93,7 @@ bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions*
 void printOfflineUsage(std::ostream& out, const std::string& program);
 
 /// Runs the whole replay. Throws std::runtime_error (bag, tf, output folder, parameters, pipeline
-/// errors, naming the file or parameter), UnknownAssociatorError (listing the available names).
+/// errors, naming the file or parameter), UnknownPluginError (listing the available names).
 /// Warnings (plot skipped, pipeline counters) go to `log`.
 OfflineSummary runOffline(const OfflineOptions& options, std::ostream& log);
 

@@ -1,0 +1,93 @@
+// Creates plugins by their pluginlib name ("ekf_slam/DJNN", "ekf_slam/FGCBB") and configures them:
+// one loader for every plugin family of the package (data associators, relocalisers), used by the
+// SLAM node, the offline runner and the tools, so that all of them pick algorithms the same way.
+//
+//   AssociatorLoader loader;                       // = PluginLoader<DataAssociation>
+//   auto djnn = loader.create("DJNN", params);     // bare names get the "ekf_slam/" prefix
+//   RelocaliserLoader relocalisers;                // = PluginLoader<Relocaliser>
+//
+// A family is declared once in PluginFamily<Base> (base class name for pluginlib, a noun for
+// messages, the default plugin); the loader itself is written once and instantiated for both
+// families in plugin_loader.cpp.
+//
+// Lifetime: the plugin library stays loaded as long as the pluginlib loader lives. Every
+// instance returned by create() holds a reference to the loader, so the library cannot be
+// unloaded under a live instance, whatever the order in which the owner destroys things.
+#pragma once
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/relocalisation/relocaliser.h"
+
+namespace pluginlib {
+template <class T>
+class ClassLoader;
+}  // namespace pluginlib
+
+namespace ekf_slam {
+
+/// What pluginlib and the messages need to know about one plugin family.
+template <class Base>
+struct PluginFamily;
+
+template <>
+struct PluginFamily<DataAssociation> {
+  static constexpr const char* kBaseClass = "ekf_slam::DataAssociation";
+  static constexpr const char* kNoun = "associator";
+  static constexpr const char* kDefault = "ekf_slam/DJNN";
+};
+
+template <>
+struct PluginFamily<Relocaliser> {
+  static constexpr const char* kBaseClass = "ekf_slam::Relocaliser";
+  static constexpr const char* kNoun = "relocaliser";
+  /// Used when relocalisation is switched on without a name.
+  static constexpr const char* kDefault = "ekf_slam/FGCBB";
+};
+
+/// Thrown for a name no plugin of the family declares; the message lists the declared names.
+class UnknownPluginError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+using UnknownAssociatorError = UnknownPluginError;
+using UnknownRelocaliserError = UnknownPluginError;
+
+template <class Base>
+class PluginLoader {
+ public:
+  /// The family's default plugin.
+  static constexpr const char* kDefault = PluginFamily<Base>::kDefault;
+
+  /// Reads the plugin descriptions exported by package ekf_slam. Throws std::runtime_error when
+  /// the package cannot be found (the environment of devel/setup.bash is missing).
+  PluginLoader();
+  ~PluginLoader();
+  PluginLoader(const PluginLoader&) = delete;
+  PluginLoader& operator=(const PluginLoader&) = delete;
+
+  /// Declared lookup names, sorted, e.g. {"ekf_slam/DJNN", "ekf_slam/Hungarian", ...}.
+  std::vector<std::string> available() const;
+
+  /// Full lookup name for `name`: a bare algorithm name ("DJNN") gets the "ekf_slam/" prefix.
+  static std::string lookupName(const std::string& name);
+
+  /// Creates the plugin `name` (see lookupName) and configures it from `params`.
+  /// Throws UnknownPluginError for an undeclared name, std::runtime_error when the plugin
+  /// library cannot be loaded, ParameterError from configure().
+  std::shared_ptr<Base> create(const std::string& name, const ParameterSource& params) const;
+
+ private:
+  // Shared with every instance handed out (see the lifetime note above).
+  std::shared_ptr<pluginlib::ClassLoader<Base>> loader_;
+};
+
+using AssociatorLoader = PluginLoader<DataAssociation>;
+using RelocaliserLoader = PluginLoader<Relocaliser>;
+
+}  // namespace ekf_slam

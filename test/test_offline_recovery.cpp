@@ -1,0 +1,165 @@
+// The offline runner's recovery options on simulated bags (written here, no data needed):
+// --relocaliser on a kidnapped world, --kidnap on a world without one, map.txt written by every
+// run and read back with --load-map --unknown-pose, and the argument parsing of the new options.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/ros/offline_runner.h"
+#include "ekf_slam/ros/plugin_loader.h"
+#include "ekf_slam/ros/simulation_bag.h"
+#include "test_files.h"
+
+namespace ekf_slam {
+namespace {
+
+using test_files::TempDir;
+
+// A simulated bag and its YAML in a temporary folder.
+struct SimulatedBag {
+  explicit SimulatedBag(const std::string& world) {
+    SimulationBagOptions o;
+    o.world = world;
+    o.out_path = (dir.path() / (world + ".bag")).string();
+    o.markers = false;
+    std::ostringstream log;
+    summary = writeSimulationBag(o, log);
+  }
+  OfflineOptions options(const std::string& out) const {
+    OfflineOptions o;
+    o.bag_path = summary.bag_path;
+    o.params_path = summary.params_path;
+    o.out_dir = (dir.path() / out).string();
+    o.plot = false;
+    o.progress = false;
+    return o;
+  }
+  TempDir dir;
+  SimulationBagSummary summary;
+};
+
+nlohmann::json metrics(const OfflineSummary& s) { return nlohmann::json::parse(s.metrics_json); }
+
+// Distance between the final positions of two runs.
+double finalDistance(const nlohmann::json& a, const nlohmann::json& b) {
+  const double dx = a["final_pose"][0].get<double>() - b["final_pose"][0].get<double>();
+  const double dy = a["final_pose"][1].get<double>() - b["final_pose"][1].get<double>();
+  return std::hypot(dx, dy);
+}
+
+TEST(OfflineRecovery, KidnappedWorldIsRecoveredAndTheMapWritten) {
+  const SimulatedBag bag("rrw_kidnap_6");
+  OfflineOptions o = bag.options("run");
+  o.relocaliser = "ekf_slam/FGCBB";
+  std::ostringstream log;
+  const OfflineSummary s = runOffline(o, log);
+  const nlohmann::json j = metrics(s);
+  EXPECT_EQ(j["relocaliser"], "FGCBB");
+  EXPECT_GE(j["counters"]["lost_events"].get<int>(), 1) << log.str();
+  EXPECT_GE(j["counters"]["relocalisations"].get<int>(), 1) << log.str();
+  ASSERT_FALSE(j["relocalisation_events"].empty());
+  EXPECT_FALSE(j["lost_at_end"].get<bool>());
+  EXPECT_LT(j["truth"]["pose_rmse_m"].get<double>(), 5.0);
+  EXPECT_EQ(j["truth"]["duplicates"].get<int>(), 0);
+  EXPECT_NE(log.str().find("relocalised at scan"), std::string::npos) << log.str();
+  // map.txt: the ~save_map format, every landmark of landmarks.csv.
+  std::ifstream map(o.out_dir + "/map.txt");
+  std::string header;
+  std::getline(map, header);
+  EXPECT_EQ(header, "ekf_slam_map 1");
+}
+
+TEST(OfflineRecovery, WithoutRelocaliserTheKidnapIsNotRecovered) {
+  const SimulatedBag bag("rrw_kidnap_6");
+  std::ostringstream log;
+  const nlohmann::json j = metrics(runOffline(bag.options("run"), log));
+  EXPECT_EQ(j["counters"]["relocalisations"].get<int>(), 0);
+  EXPECT_GT(j["truth"]["pose_rmse_m"].get<double>(), 5.0);
+}
+
+TEST(OfflineRecovery, InjectedKidnapIsRecovered) {
+  const SimulatedBag bag("rrw_noise_1");
+  std::ostringstream plain_log;
+  const nlohmann::json plain = metrics(runOffline(bag.options("plain"), plain_log));
+  OfflineOptions o = bag.options("run");
+  o.relocaliser = "FGCBB";
+  o.kidnaps.push_back({300, Eigen::Vector3d(30.0, -20.0, 1.5)});
+  std::ostringstream log;
+  const nlohmann::json j = metrics(runOffline(o, log));
+  EXPECT_NE(log.str().find("kidnap before scan 300"), std::string::npos) << log.str();
+  EXPECT_EQ(j["counters"]["lost_events"].get<int>(), 1) << log.str();
+  ASSERT_EQ(j["relocalisation_events"].size(), 1u) << log.str();
+  const int scan = j["relocalisation_events"][0]["scan"].get<int>();
+  EXPECT_GT(scan, 300);
+  EXPECT_LE(scan, 310);  // within 2 s at 5 Hz
+  // The run ends where the run without the kidnap ends.
+  EXPECT_LT(finalDistance(j, plain), 1.0);
+  EXPECT_EQ(j["truth"]["duplicates"].get<int>(), 0);
+}
+
+TEST(OfflineRecovery, SavedMapWithUnknownPoseIsFoundAgain) {
+  const SimulatedBag bag("rrw_noise_1");
+  std::ostringstream log;
+  OfflineOptions first = bag.options("first");
+  const nlohmann::json built = metrics(runOffline(first, log));
+  OfflineOptions second = bag.options("second");
+  second.relocaliser = "FGCBB";
+  second.load_map = first.out_dir + "/map.txt";
+  second.unknown_pose = true;
+  const nlohmann::json j = metrics(runOffline(second, log));
+  ASSERT_GE(j["relocalisation_events"].size(), 1u) << log.str();
+  EXPECT_LE(j["relocalisation_events"][0]["scan"].get<int>(), 2);
+  EXPECT_EQ(j["counters"]["relocalisation_requests"].get<int>(), 1);
+  EXPECT_EQ(j["counters"]["relocalisations"].get<int>(), 1);
+  // In the map of the first run, the second ends where the first did.
+  EXPECT_LT(finalDistance(j, built), 1.0);
+  // Unknown pose without a relocaliser, or without a map: clear errors.
+  OfflineOptions bad = second;
+  bad.relocaliser.clear();
+  EXPECT_THROW(runOffline(bad, log), std::runtime_error);
+  bad = second;
+  bad.load_map.clear();
+  EXPECT_THROW(runOffline(bad, log), std::runtime_error);
+  bad = second;
+  bad.relocaliser = "FGCB";
+  EXPECT_THROW(runOffline(bad, log), UnknownRelocaliserError);
+}
+
+TEST(OfflineRecovery, ParsesTheRecoveryArguments) {
+  OfflineOptions o;
+  bool help = false;
+  std::string error;
+  ASSERT_TRUE(parseOfflineArguments(
+      {"--bag", "b", "--out", "d", "--relocaliser", "FGCBB", "--load-map", "m.txt",
+       "--unknown-pose", "--kidnap", "2000:30,-20,1.5", "--kidnap", "10:0,0,-0.5"},
+      &o, &help, &error))
+      << error;
+  EXPECT_EQ(o.relocaliser, "FGCBB");
+  EXPECT_EQ(o.load_map, "m.txt");
+  EXPECT_TRUE(o.unknown_pose);
+  ASSERT_EQ(o.kidnaps.size(), 2u);
+  EXPECT_EQ(o.kidnaps[0].scan, 2000u);
+  EXPECT_TRUE(o.kidnaps[0].jump.isApprox(Eigen::Vector3d(30, -20, 1.5)));
+  EXPECT_DOUBLE_EQ(o.kidnaps[1].jump.z(), -0.5);
+  for (const std::string bad : {"2000", "2000:30,20", "x:1,2,3", "-1:1,2,3", "5:1,2,3junk"}) {
+    OfflineOptions p;
+    EXPECT_FALSE(
+        parseOfflineArguments({"--bag", "b", "--out", "d", "--kidnap", bad}, &p, &help, &error))
+        << bad;
+    EXPECT_NE(error.find("--kidnap"), std::string::npos) << error;
+  }
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

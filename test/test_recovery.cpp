@@ -1,0 +1,276 @@
+// Lost-robot recovery through SlamPipeline with DJNN and FGCBB: a forced relocalisation, a
+// kidnap detected by the lost rule and recovered without duplicating the map, localisation in a
+// saved map from an unknown pose, the map frozen while lost, and a kidnapped simulated world end
+// to end (runSimulation, as `evaluate --relocaliser` runs it).
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/relocalisation/fgcbb.h"
+#include "ekf_slam/core/simulated_run.h"
+#include "ekf_slam/core/slam_pipeline.h"
+#include "relocalisation_fixtures.h"
+#include "test_files.h"
+
+namespace ekf_slam {
+namespace {
+
+using reloc_test::World;
+
+// A robot driving through an irregular forest, seen by a 360-degree 15 m sensor, with exact
+// odometry; the truth can be kidnapped (the odometry does not notice).
+class Drive {
+ public:
+  explicit Drive(bool relocaliser = true, const Eigen::Vector3d& start = {20, 30, 0.1},
+                 std::shared_ptr<Relocaliser> custom = nullptr)
+      : world_(reloc_test::randomMap(250, 120.0, 3.0, 21)), truth_(start) {
+    config_.initial_pose = start;
+    config_.initial_pose_sigma = Eigen::Vector3d(0.01, 0.01, 0.001);
+    config_.sigma_range = reloc_test::kSigmaRange;
+    config_.sigma_bearing = reloc_test::kSigmaBearing;
+    config_.max_observation_range = 15.0;
+    config_.lost_field_of_view = 2.0 * M_PI;
+    config_.twist.additive = Eigen::Vector3d(0.005, 0.005, 0.0005).asDiagonal();
+    djnn_ = std::make_shared<DJNN>();
+    MapParameterSource djnn_params;
+    djnn_params.set("sensor_range", "15");
+    djnn_params.set("field_of_view", "6.2831");
+    djnn_->configure(djnn_params);
+    pipeline_ = std::make_unique<SlamPipeline>(config_, djnn_);
+    pipeline_->setSensorOffset(world_.sensor_offset);
+    if (custom) {
+      pipeline_->setRelocaliser(custom);
+    } else if (relocaliser) {
+      pipeline_->setRelocaliser(std::make_shared<FGCBB>());
+    }
+  }
+
+  /// `scans` scans at 5 Hz driving at 2 m/s with a gentle turn; returns the last report.
+  ScanReport run(int scans, double w = 0.05) {
+    ScanReport last;
+    const TwistModel exact;
+    for (int k = 0; k < scans; ++k) {
+      for (int s = 0; s < 8; ++s) {
+        pipeline_->addOdometry(odom(w));
+        truth_ = exact.predict(truth_, {2.0, w}, 0.025);
+        t_ += 0.025;
+      }
+      last =
+          pipeline_->processObservations(t_, world_.observe(truth_, 15.0, nullptr, true, seed_++));
+      reports_.push_back(last);
+    }
+    return last;
+  }
+  void kidnap(const Eigen::Vector3d& jump) {
+    truth_ += jump;
+    truth_.z() = wrapAngle(truth_.z());
+  }
+  double error() const { return (pipeline_->pose().head<2>() - truth_.head<2>()).norm(); }
+  double headingError() const { return std::abs(wrapAngle(pipeline_->pose().z() - truth_.z())); }
+  /// Pairs of landmarks closer than 1 m: a landmark mapped twice.
+  int duplicates() const {
+    const EkfSlam& ekf = pipeline_->ekf();
+    int d = 0;
+    for (std::size_t a = 0; a < ekf.numLandmarks(); ++a)
+      for (std::size_t b = a + 1; b < ekf.numLandmarks(); ++b)
+        d += (ekf.landmark(static_cast<int>(a)) - ekf.landmark(static_cast<int>(b))).norm() < 1.0;
+    return d;
+  }
+
+  SlamPipeline& pipeline() { return *pipeline_; }
+  const Eigen::Vector3d& truth() const { return truth_; }
+  std::vector<ScanReport>& reports() { return reports_; }
+  PipelineConfig config_;
+
+ private:
+  OdometryInput odom(double w) const {
+    OdometryInput o;
+    o.stamp = t_;
+    o.twist = Eigen::Vector2d(2.0, w);
+    return o;
+  }
+
+  World world_;
+  Eigen::Vector3d truth_;
+  double t_ = 0.0;
+  unsigned seed_ = 1;
+  std::shared_ptr<DJNN> djnn_;
+  std::unique_ptr<SlamPipeline> pipeline_;
+  std::vector<ScanReport> reports_;
+};
+
+TEST(Recovery, ForcedRelocalisationReplacesThePoseConsistently) {
+  Drive d;
+  d.run(40);
+  ASSERT_LT(d.error(), 0.3);
+  const std::size_t landmarks = d.pipeline().ekf().numLandmarks();
+  ASSERT_GT(landmarks, 10u);
+  ASSERT_TRUE(d.pipeline().requestRelocalisation());
+  EXPECT_TRUE(d.pipeline().lost());
+  const ScanReport r = d.run(1);
+  EXPECT_TRUE(r.lost);
+  ASSERT_TRUE(r.relocalised) << r.relocalisation.reason;
+  EXPECT_FALSE(d.pipeline().lost());
+  EXPECT_LT(d.error(), 0.3);
+  EXPECT_EQ(d.pipeline().counters().relocalisations, 1u);
+  EXPECT_EQ(d.pipeline().counters().relocalisation_requests, 1u);
+  // Every relocaliser pairing went into the update; nothing was added or removed.
+  int paired = 0;
+  for (const Decision x : r.association.decision) paired += x == Decision::kPaired;
+  EXPECT_EQ(paired, r.relocalisation.hypothesis_size);
+  EXPECT_EQ(d.pipeline().ekf().numLandmarks(), landmarks);
+  // The pose is correlated with the map again (re-derived from it) and its covariance is sane:
+  // NEES of the pose below chi2(3, 0.999) = 16.3.
+  const Eigen::Vector3d e(d.pipeline().pose().x() - d.truth().x(),
+                          d.pipeline().pose().y() - d.truth().y(),
+                          wrapAngle(d.pipeline().pose().z() - d.truth().z()));
+  EXPECT_LT(e.dot(d.pipeline().poseCovariance().ldlt().solve(e)), 16.3);
+  EXPECT_GT(d.pipeline().ekf().covariance().block(0, 3, 3, 2 * landmarks).cwiseAbs().maxCoeff(),
+            1e-6);
+  // Tracking goes on.
+  d.run(20);
+  EXPECT_LT(d.error(), 0.3);
+  EXPECT_FALSE(d.pipeline().lost());
+}
+
+TEST(Recovery, KidnapIsDetectedAndRecoveredWithoutDuplicatingTheMap) {
+  Drive d;
+  d.run(50);
+  ASSERT_LT(d.error(), 0.3);
+  const std::size_t landmarks = d.pipeline().ekf().numLandmarks();
+  d.kidnap({-12.0, -2.0, 1.2});  // back into the mapped part of the forest, turned
+  int recovered_after = -1;
+  for (int k = 0; k < 15 && recovered_after < 0; ++k) {
+    const ScanReport r = d.run(1);
+    if (r.relocalised) recovered_after = k;
+    if (r.relocalisation_attempted && !r.relocalised) {
+      EXPECT_NE(r.relocalisation.reason, "");
+    }
+  }
+  ASSERT_GE(recovered_after, 0) << "not recovered";
+  EXPECT_LE(recovered_after, 5);  // lost after 3 scans, found at the next ones
+  EXPECT_LT(d.error(), 0.5);
+  EXPECT_LT(d.headingError(), 0.02);
+  EXPECT_EQ(d.pipeline().counters().lost_events, 1u);
+  EXPECT_EQ(d.pipeline().counters().relocalisations, 1u);
+  // Landmarks created from the wrong pose before the rule fired were discarded.
+  EXPECT_LE(d.pipeline().ekf().numLandmarks(), landmarks + 2);
+  d.run(40);
+  EXPECT_LT(d.error(), 0.5);
+  EXPECT_EQ(d.duplicates(), 0);
+}
+
+// Never finds anything; counts its calls and remembers the map it was given.
+class NeverFound : public Relocaliser {
+ public:
+  void configure(const ParameterSource&) override {}
+  std::string name() const override { return "NeverFound"; }
+  void setMap(const std::vector<MapLandmark>& map) override { map_size = map.size(); }
+  RelocalisationResult relocalise(const std::vector<Observation>& obs, const Eigen::Vector3d&,
+                                  const PosePrior* prior) override {
+    ++calls;
+    EXPECT_EQ(prior, nullptr);  // recovery is global
+    RelocalisationResult r;
+    r.landmark.assign(obs.size(), kNoLandmark);
+    r.reason = "never";
+    return r;
+  }
+  std::size_t map_size = 0;
+  int calls = 0;
+};
+
+TEST(Recovery, MapIsFrozenWhileLost) {
+  auto never = std::make_shared<NeverFound>();
+  Drive d(true, {20, 30, 0.1}, never);
+  d.run(30);
+  const std::size_t landmarks = d.pipeline().ekf().numLandmarks();
+  const Eigen::VectorXd map = d.pipeline().ekf().mean().tail(2 * landmarks);
+  ASSERT_TRUE(d.pipeline().requestRelocalisation());
+  EXPECT_EQ(never->map_size, landmarks);
+  for (int k = 0; k < 20; ++k) {  // on into unmapped forest: nothing is added while lost
+    const ScanReport r = d.run(1);
+    EXPECT_TRUE(r.lost);
+    EXPECT_FALSE(r.relocalised);
+    EXPECT_TRUE(r.removed.empty());
+    EXPECT_EQ(r.association.decision.size(), r.observations.size());
+    for (const Decision x : r.association.decision) EXPECT_EQ(x, Decision::kRejected);
+  }
+  EXPECT_EQ(never->calls, 20);
+  EXPECT_TRUE(d.pipeline().lost());
+  EXPECT_EQ(d.pipeline().counters().relocalisations_not_found, 20u);
+  EXPECT_EQ(d.pipeline().ekf().numLandmarks(), landmarks);
+  EXPECT_TRUE(d.pipeline().ekf().mean().tail(2 * landmarks).isApprox(map));
+  EXPECT_EQ(d.pipeline().counters().relocalisation_attempts, 20u);
+  EXPECT_EQ(d.pipeline().counters().relocalisations, 0u);
+  // reset() ends it.
+  d.pipeline().reset();
+  EXPECT_FALSE(d.pipeline().lost());
+}
+
+TEST(Recovery, SavedMapWithUnknownPoseStartsLostAndFindsItself) {
+  test_files::TempDir dir;
+  const std::string path = (dir.path() / "map.txt").string();
+  {
+    Drive d;
+    d.run(60);
+    d.pipeline().saveMap(path);
+  }
+  // A new run somewhere else on the route, its initial pose far off.
+  Drive d(true, {45.0, 40.0, 2.0});
+  d.pipeline().loadMap(path, /*reset_pose=*/false, /*unknown_pose=*/true);
+  EXPECT_TRUE(d.pipeline().lost());
+  const std::size_t landmarks = d.pipeline().ekf().numLandmarks();
+  const ScanReport r = d.run(1);
+  ASSERT_TRUE(r.relocalised) << r.relocalisation.reason;
+  EXPECT_LT(d.error(), 0.5);
+  EXPECT_EQ(d.pipeline().ekf().numLandmarks(), landmarks);
+  EXPECT_EQ(d.pipeline().counters().relocalisation_requests, 1u);
+}
+
+TEST(Recovery, WithoutRelocaliserNothingChanges) {
+  Drive d(false);
+  EXPECT_FALSE(d.pipeline().requestRelocalisation());
+  EXPECT_FALSE(d.pipeline().lost());
+  d.run(10);
+  d.kidnap({-15.0, 12.0, 1.2});
+  d.run(10);
+  EXPECT_FALSE(d.pipeline().lost());
+  EXPECT_EQ(d.pipeline().counters().lost_events, 0u);
+  test_files::TempDir dir;
+  d.pipeline().saveMap((dir.path() / "map.txt").string());
+  const std::size_t landmarks = d.pipeline().ekf().numLandmarks();
+  EXPECT_THROW(d.pipeline().loadMap((dir.path() / "map.txt").string(), false, true),
+               std::runtime_error);
+  EXPECT_EQ(d.pipeline().ekf().numLandmarks(), landmarks);
+}
+
+TEST(Recovery, KidnappedSimulatedWorldRecoversWithinTwoSeconds) {
+  const sim::World world = sim::makeWorld("rrw_kidnap_5");
+  PipelineConfig config = sim::pipelineConfigFor(world);
+  config.lost_field_of_view = 2.0 * M_PI;
+  auto djnn = std::make_shared<DJNN>();
+  djnn->configure(MapParameterSource(sim::associatorParametersFor(world, "DJNN")));
+  auto fgcbb = std::make_shared<FGCBB>();
+  fgcbb->configure(MapParameterSource(sim::associatorParametersFor(world, "FGCBB")));
+  const RunMetrics m = runSimulation(world, world.default_seed, config, djnn, nullptr, nullptr, fgcbb);
+  EXPECT_GE(m.lost_events, 1u);
+  EXPECT_GE(m.relocalisations, 1u);
+  EXPECT_EQ(m.wrong_relocalisations, 0u);
+  ASSERT_GE(m.recovery_scans, 0) << "never recovered";
+  EXPECT_LE(m.recovery_s, 2.0);
+  EXPECT_LT(m.pose_rmse_after_recovery_m, 1.0);
+  EXPECT_EQ(m.map.duplicates, 0u);
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

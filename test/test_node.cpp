@@ -15,6 +15,7 @@
 #include <sensor_msgs/LaserScan.h>
 #include <signal.h>
 #include <std_srvs/Empty.h>
+#include <std_srvs/Trigger.h>
 #include <sys/wait.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -523,6 +524,41 @@ TEST_F(BadInput, NodeKeepsRunningAndStaysFinite) {
   std_srvs::Empty reset;
   EXPECT_TRUE(ros::service::waitForService("/ekf_slam/reset", ros::Duration(5.0)));
   EXPECT_TRUE(ros::service::call("/ekf_slam/reset", reset));
+}
+
+// ~relocalise needs a relocaliser: without one it says so; with one (a second node started
+// with ~relocaliser) it succeeds and the node reports the lost state on /diagnostics.
+TEST_F(BadInput, RelocaliseService) {
+  std_srvs::Trigger none;
+  ASSERT_TRUE(ros::service::call("/ekf_slam/relocalise", none));
+  EXPECT_FALSE(none.response.success);
+  EXPECT_NE(none.response.message.find("relocaliser"), std::string::npos) << none.response.message;
+
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execl(EKF_SLAM_NODE_BIN, EKF_SLAM_NODE_BIN, "__name:=ekf_slam_reloc",
+          "_relocaliser:=ekf_slam/FGCBB", "odom:=/unused_odom", "scan:=/unused_scan",
+          "observations:=/unused_observations", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  ASSERT_GT(pid, 0);
+  std::string lost_state;
+  ros::Subscriber diag = nh_.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 10, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+        for (const auto& st : m->status) {
+          if (st.name == "/ekf_slam_reloc: processing") lost_state = st.message;
+        }
+      });
+  const bool up = ros::service::waitForService("/ekf_slam_reloc/relocalise", ros::Duration(20.0));
+  std_srvs::Trigger trigger;
+  const bool called = up && ros::service::call("/ekf_slam_reloc/relocalise", trigger);
+  const bool reported = waitFor([&] { return lost_state.find("LOST") != std::string::npos; }, 5.0);
+  kill(pid, SIGINT);
+  waitpid(pid, nullptr, 0);
+  ASSERT_TRUE(up) << "the node with a relocaliser did not start";
+  ASSERT_TRUE(called);
+  EXPECT_TRUE(trigger.response.success) << trigger.response.message;
+  EXPECT_TRUE(reported) << "diagnostics: '" << lost_state << "'";
 }
 
 TEST_F(BadInput, SaveAndLoadMap) {

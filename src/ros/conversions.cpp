@@ -152,6 +152,8 @@ AssociationStats toAssociationStats(const ScanReport& report, const std::string&
   msg.update_time = report.update_s;
   msg.nis = report.nis;
   msg.nis_dof = static_cast<std::uint32_t>(report.nis_dof);
+  msg.lost = report.lost;
+  msg.relocalised = report.relocalised;
   msg.landmarks = static_cast<std::uint32_t>(landmarks);
   return msg;
 }

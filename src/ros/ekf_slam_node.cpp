@@ -98,6 +98,14 @@ EkfSlamNode::EkfSlamNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   // Scan -> observations -> association -> EKF update: the pipeline owns the whole flow.
   pipeline_ = std::make_unique<SlamPipeline>(pipeline_config_, associator_);
+  if (relocaliser_) pipeline_->setRelocaliser(relocaliser_);
+  if (!config_.initial_map.empty()) {
+    // Throws (the node does not start) when the file is bad or a relocaliser is missing.
+    pipeline_->loadMap(config_.initial_map, true, config_.initial_map_unknown_pose);
+    ROS_INFO("ekf_slam: loaded %zu landmarks from %s%s", pipeline_->ekf().numLandmarks(),
+             config_.initial_map.c_str(),
+             config_.initial_map_unknown_pose ? "; pose unknown: relocalising" : "");
+  }
   InputSequencerConfig seq;
   seq.max_latency = pipeline_config_.max_latency;
   seq.time_jump_threshold = pipeline_config_.time_jump_threshold;
@@ -115,6 +123,7 @@ EkfSlamNode::EkfSlamNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   reset_srv_ = pnh_.advertiseService("reset", &EkfSlamNode::resetService, this);
   save_srv_ = pnh_.advertiseService("save_map", &EkfSlamNode::saveMapService, this);
   load_srv_ = pnh_.advertiseService("load_map", &EkfSlamNode::loadMapService, this);
+  relocalise_srv_ = pnh_.advertiseService("relocalise", &EkfSlamNode::relocaliseService, this);
 
   // Reception on its own thread and callback queue: roscpp drops on a full subscriber queue
   // without telling anyone, so its callbacks only hand the message over; processing (a scan can
@@ -192,6 +201,8 @@ NodeConfig readNodeConfig(const ParameterSource& source) {
   c.input_timeout = p.positive("input_timeout", c.input_timeout);
   c.queue_size = p.integer("queue_size", c.queue_size, 1, 10000000);
   c.map_file = p.text("map_file", c.map_file);
+  c.initial_map = p.text("initial_map", c.initial_map);
+  c.initial_map_unknown_pose = p.flag("initial_map_unknown_pose", c.initial_map_unknown_pose);
   c.markers.default_diameter = p.positive("marker_default_diameter", c.markers.default_diameter);
   c.markers.height = p.positive("marker_height", c.markers.height);
   c.markers.text_size = p.positive("marker_text_size", c.markers.text_size);
@@ -225,6 +236,14 @@ void EkfSlamNode::readParameters() {
   associator_ = loader_.create(config_.associator, assoc_source);
   source.rejectUnread();
   assoc_source.rejectUnread();
+  // The relocaliser (docs/relocalisation.md) reads its own namespace too, e.g. ~FGCBB/...
+  if (!pipeline_config_.relocaliser.empty()) {
+    const std::string name = RelocaliserLoader::lookupName(pipeline_config_.relocaliser);
+    const RosParameterSource reloc_ros(pnh_, shortName(name));
+    const RecordingParameterSource reloc_source(reloc_ros, reloc_ros.names());
+    relocaliser_ = relocaliser_loader_.create(name, reloc_source);
+    reloc_source.rejectUnread();
+  }
 }
 
 // --- inputs ---------------------------------------------------------------------------------
@@ -499,6 +518,7 @@ void EkfSlamNode::process(const SensorInput& input, double stamp) {
     ROS_WARN_THROTTLE(5.0, "ekf_slam: scan at %.3f older than the filter: used at %.3f (%lu)",
                       stamp, pipeline_->time(), static_cast<unsigned long>(c.late_scans));
   }
+  reportRecovery(report);
   const double latency = (ros::WallTime::now() - input.received).toSec();
   latency_sum_ += latency;
   latency_max_ = std::max(latency_max_, latency);
@@ -721,7 +741,9 @@ void EkfSlamNode::onDiagnosticsTimer(const ros::WallTimerEvent&) {
   proc.hardware_id = hw;
   const double mean_latency = latency_count_ ? latency_sum_ / latency_count_ : 0.0;
   proc.level = diagnostic_msgs::DiagnosticStatus::OK;
-  proc.message = "tracking, " + std::to_string(pipeline_->ekf().numLandmarks()) + " landmarks";
+  proc.message = std::string(pipeline_->lost() ? "LOST (relocalising)" : "tracking") + ", " +
+                 std::to_string(pipeline_->ekf().numLandmarks()) + " landmarks";
+  if (pipeline_->lost()) proc.level = diagnostic_msgs::DiagnosticStatus::WARN;
   if (c.rejected_updates > 0 || c.rejected_odometry > 0) {
     proc.level = diagnostic_msgs::DiagnosticStatus::WARN;
     proc.message += "; " + std::to_string(c.rejected_updates) + " updates and " +
@@ -745,7 +767,11 @@ void EkfSlamNode::onDiagnosticsTimer(const ros::WallTimerEvent&) {
                  keyValue("invalid observations", c.invalid_observations),
                  keyValue("map frozen: new landmarks not added", c.frozen_new),
                  keyValue("map frozen: removals not applied", c.frozen_removals),
-                 keyValue("map -> odom from the Odometry pose (no tf)", odom_tf_fallbacks_)};
+                 keyValue("map -> odom from the Odometry pose (no tf)", odom_tf_fallbacks_),
+                 keyValue("relocaliser", pipeline_config_.relocaliser),
+                 keyValue("lost events", c.lost_events),
+                 keyValue("relocalisations", c.relocalisations),
+                 keyValue("relocalisation attempts", c.relocalisation_attempts)};
   array.status.push_back(proc);
   latency_sum_ = latency_max_ = 0.0;
   latency_count_ = 0;
@@ -778,6 +804,27 @@ bool EkfSlamNode::resetService(std_srvs::Empty::Request&, std_srvs::Empty::Respo
   return true;
 }
 
+bool EkfSlamNode::relocaliseService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  res.success = pipeline_->requestRelocalisation();
+  res.message = res.success ? "lost on request: the next scans are relocalised with " +
+                                  pipeline_config_.relocaliser
+                            : "no relocaliser configured (parameter ~relocaliser)";
+  ROS_INFO("ekf_slam: ~relocalise: %s", res.message.c_str());
+  return true;
+}
+
+void EkfSlamNode::reportRecovery(const ScanReport& report) {
+  if (report.became_lost) {
+    ROS_WARN("ekf_slam: lost at scan %u (%s): map frozen, relocalising with %s", report.scan,
+             report.lost_reason.c_str(), pipeline_config_.relocaliser.c_str());
+  }
+  if (report.relocalised) {
+    const Eigen::Vector3d p = pipeline_->pose();
+    ROS_INFO("ekf_slam: relocalised at scan %u: pose (%.2f, %.2f, %.3f rad), %d pairings",
+             report.scan, p.x(), p.y(), p.z(), report.relocalisation.hypothesis_size);
+  }
+}
+
 bool EkfSlamNode::saveMapService(SaveMap::Request& req, SaveMap::Response& res) {
   const std::string path = req.path.empty() ? config_.map_file : req.path;
   if (path.empty()) {
@@ -807,7 +854,7 @@ bool EkfSlamNode::loadMapService(LoadMap::Request& req, LoadMap::Response& res) 
     return true;
   }
   try {
-    pipeline_->loadMap(path, req.reset_pose);
+    pipeline_->loadMap(path, req.reset_pose, req.unknown_pose);
     res.success = true;
     res.message =
         "loaded " + std::to_string(pipeline_->ekf().numLandmarks()) + " landmarks from " + path;

@@ -25,6 +25,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 #include <std_srvs/Empty.h>
+#include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
@@ -60,6 +61,10 @@ struct NodeConfig {
   /// the processing thread (overflow is counted and warned about, never silent).
   int queue_size = 100000;
   std::string map_file;  ///< default path of ~save_map / ~load_map
+  /// A map to load at start-up (empty: none); with initial_map_unknown_pose the robot starts
+  /// lost in it and the relocaliser finds it (localisation in a saved map).
+  std::string initial_map;
+  bool initial_map_unknown_pose = false;
   MarkerStyle markers;
 };
 
@@ -144,6 +149,9 @@ class EkfSlamNode {
   bool resetService(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
   bool saveMapService(SaveMap::Request& req, SaveMap::Response& res);
   bool loadMapService(LoadMap::Request& req, LoadMap::Response& res);
+  bool relocaliseService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
+  /// Logs what the recovery did at this scan (lost, relocalised).
+  void reportRecovery(const ScanReport& report);
 
   ros::NodeHandle nh_, pnh_;
   NodeConfig config_;
@@ -151,6 +159,8 @@ class EkfSlamNode {
 
   AssociatorLoader loader_;
   std::shared_ptr<DataAssociation> associator_;
+  RelocaliserLoader relocaliser_loader_;
+  std::shared_ptr<Relocaliser> relocaliser_;  ///< null: no recovery (`relocaliser` empty)
   std::unique_ptr<SlamPipeline> pipeline_;
   std::unique_ptr<InputSequencer<SensorInput>> sequencer_;
   LandmarkMarkers markers_;
@@ -175,7 +185,7 @@ class EkfSlamNode {
   ros::Subscriber odom_sub_, scan_sub_, observations_sub_;
   ros::Publisher pose_pub_, path_pub_, markers_pub_, map_pub_, associations_pub_, diagnostics_pub_;
   ros::Publisher correction_pub_;  // ~odometry_correction (AEKF states), when configured
-  ros::ServiceServer reset_srv_, save_srv_, load_srv_;
+  ros::ServiceServer reset_srv_, save_srv_, load_srv_, relocalise_srv_;
   ros::WallTimer input_timer_, visualization_timer_, transform_timer_, diagnostics_timer_;
 
   nav_msgs::Path path_;

@@ -72,6 +72,9 @@ class CapturingAssociator : public DataAssociation {
     return inner_->associate(context);
   }
   void landmarkAdded(int obs, LandmarkId id) override { inner_->landmarkAdded(obs, id); }
+  void landmarkLoaded(LandmarkId id, std::uint32_t times_observed) override {
+    inner_->landmarkLoaded(id, times_observed);
+  }
   void reset() override { inner_->reset(); }
   int evidence(LandmarkId id) const override { return inner_->evidence(id); }
   std::vector<TentativeFeature> tentativeFeatures() const override {

@@ -18,6 +18,7 @@
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/parameters.h"
 #include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/pose2d.h"
 #include "ekf_slam/core/recording_parameter_source.h"
 #include "ekf_slam/ros/conversions.h"
 #include "ekf_slam/ros/ros_parameter_source.h"
@@ -25,18 +26,6 @@
 namespace ekf_slam {
 
 namespace {
-
-// Planar rigid transforms (x, y, yaw): a * b and a^-1.
-Eigen::Vector3d compose(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  const double c = std::cos(a.z()), s = std::sin(a.z());
-  return Eigen::Vector3d(a.x() + c * b.x() - s * b.y(), a.y() + s * b.x() + c * b.y(),
-                         std::atan2(std::sin(a.z() + b.z()), std::cos(a.z() + b.z())));
-}
-
-Eigen::Vector3d inverse(const Eigen::Vector3d& a) {
-  const double c = std::cos(a.z()), s = std::sin(a.z());
-  return Eigen::Vector3d(-c * a.x() - s * a.y(), s * a.x() - c * a.y(), -a.z());
-}
 
 // Pose of a unicycle moving with twist (v, w) for dt from `pose` (exact arc).
 Eigen::Vector3d extrapolate(const Eigen::Vector3d& pose, const Eigen::Vector2d& twist, double dt) {
@@ -637,7 +626,7 @@ void EkfSlamNode::updateMapToOdom() {
         dt > 0.0 ? extrapolate(last_odometry_.pose, last_odometry_.twist, dt) : last_odometry_.pose;
   }
   map_base_pending_ = false;
-  const Eigen::Vector3d map_odom = compose(map_base_, inverse(odom_base));
+  const Eigen::Vector3d map_odom = composePose(map_base_, inversePose(odom_base));
   if (!map_odom.allFinite()) return;
   map_odom_ = map_odom;
   have_map_odom_ = true;

@@ -28,12 +28,6 @@ double distanceVariance(const Eigen::Vector2d& d, const Eigen::Matrix2d& cov) {
 
 }  // namespace
 
-Eigen::Matrix2d rotation2d(double a) {
-  Eigen::Matrix2d R;
-  R << std::cos(a), -std::sin(a), std::sin(a), std::cos(a);
-  return R;
-}
-
 std::vector<ObservedPoint> observedPoints(const std::vector<Observation>& observations,
                                           const Eigen::Vector3d& sensor_offset, double max_range) {
   std::vector<ObservedPoint> out;

@@ -12,24 +12,9 @@
 
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/chi2.h"
+#include "ekf_slam/core/pose2d.h"
 
 namespace ekf_slam {
-namespace {
-
-Eigen::Matrix2d rotation(double a) {
-  const double c = std::cos(a), s = std::sin(a);
-  Eigen::Matrix2d r;
-  r << c, -s, s, c;
-  return r;
-}
-
-// Pose a (+) b.
-Eigen::Vector3d compose(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  const Eigen::Vector2d t = a.head<2>() + rotation(a.z()) * b.head<2>();
-  return {t.x(), t.y(), wrapAngle(a.z() + b.z())};
-}
-
-}  // namespace
 
 void RRWSCRelocaliser::configure(const ParameterSource& params) {
   const ParameterReader reader(params);
@@ -55,7 +40,7 @@ bool RRWSCRelocaliser::distinct(const Eigen::Vector3d& a, const Eigen::Vector3d&
 void RRWSCRelocaliser::score(const Eigen::Vector3d& sensor, double extra_var, Hypothesis* h) const {
   const int m = static_cast<int>(input_.observed.size());
   const int n = static_cast<int>(input_.landmarks.size());
-  const Eigen::Matrix2d rot = rotation(sensor.z());
+  const Eigen::Matrix2d rot = rotation2d(sensor.z());
   h->sensor = sensor;
   h->landmark.assign(m, -1);
   h->inliers = 0;
@@ -99,7 +84,7 @@ void RRWSCRelocaliser::information(const Hypothesis& h, const Eigen::Vector3d& s
   // Residual e = R p + t - l, J = [I, dR/dtheta p]: info = sum J^T S^-1 J, grad = sum J^T S^-1 e.
   info->setZero();
   grad->setZero();
-  const Eigen::Matrix2d rot = rotation(sensor.z());
+  const Eigen::Matrix2d rot = rotation2d(sensor.z());
   Eigen::Matrix2d drot;
   drot << -rot(1, 0), -rot(0, 0), rot(0, 0), -rot(1, 0);
   for (std::size_t i = 0; i < h.landmark.size(); ++i) {
@@ -141,7 +126,7 @@ void RRWSCRelocaliser::refine(Hypothesis* h, Eigen::Matrix3d* cov) const {
         cross += w[i] * (input_.observed[i] - pc) * (input_.landmarks[j] - lc).transpose();
     }
     const double theta = std::atan2(cross(0, 1) - cross(1, 0), cross(0, 0) + cross(1, 1));
-    const Eigen::Vector2d t = lc - rotation(theta) * pc;
+    const Eigen::Vector2d t = lc - rotation2d(theta) * pc;
     // Then Gauss-Newton on the full residual covariances (bearing noise makes far points'
     // residuals long and thin, which the scalar weights above ignore).
     Eigen::Vector3d pose(t.x(), t.y(), theta);
@@ -178,7 +163,7 @@ RelocalisationResult RRWSCRelocaliser::relocalise(const std::vector<Observation>
   local_.clear();
   Eigen::Vector3d prior_sensor = Eigen::Vector3d::Zero();
   if (prior != nullptr) {
-    prior_sensor = compose(prior->mean, sensor_offset);
+    prior_sensor = composePose(prior->mean, sensor_offset);
     double max_range = 0.0;
     for (const Observation& o : observations) max_range = std::max(max_range, o.z.x());
     const double sigma = std::sqrt(std::max(
@@ -209,7 +194,7 @@ RelocalisationResult RRWSCRelocaliser::relocalise(const std::vector<Observation>
   if (prior != nullptr && p_.matching.position_weight > 0.0) {
     // M_ij of the observation's map position under the prior (pose covariance through
     // J = [I, dR/dtheta p], the sensor offset's lever arm neglected).
-    const Eigen::Matrix2d rot = rotation(prior_sensor.z());
+    const Eigen::Matrix2d rot = rotation2d(prior_sensor.z());
     Eigen::Matrix2d drot;
     drot << -rot(1, 0), -rot(0, 0), rot(0, 0), -rot(1, 0);
     input_.mahalanobis.resize(m, n);
@@ -262,7 +247,7 @@ RelocalisationResult RRWSCRelocaliser::relocalise(const std::vector<Observation>
       const double theta = std::atan2(dl.y(), dl.x()) - std::atan2(dp.y(), dp.x());
       const Eigen::Vector2d t =
           0.5 * (input_.landmarks[g.col[c1]] + input_.landmarks[g.col[c2]]) -
-          rotation(theta) * 0.5 * (input_.observed[g.row[c1]] + input_.observed[g.row[c2]]);
+          rotation2d(theta) * 0.5 * (input_.observed[g.row[c1]] + input_.observed[g.row[c2]]);
       Hypothesis h;
       score({t.x(), t.y(), wrapAngle(theta)}, extra, &h);
       hyps.push_back(std::move(h));
@@ -301,7 +286,7 @@ RelocalisationResult RRWSCRelocaliser::relocalise(const std::vector<Observation>
   }
   // Vehicle pose from the sensor pose: v = s (+) offset^-1.
   const double yaw = wrapAngle(best.sensor.z() - sensor_offset.z());
-  const Eigen::Matrix2d rv = rotation(yaw);
+  const Eigen::Matrix2d rv = rotation2d(yaw);
   res.pose << best.sensor.head<2>() - rv * sensor_offset.head<2>(), yaw;
   Eigen::Matrix3d jac = Eigen::Matrix3d::Identity();
   Eigen::Matrix2d drv;

@@ -13,12 +13,10 @@
 
 #include <Eigen/Core>
 
+#include "ekf_slam/core/pose2d.h"
 #include "ekf_slam/core/relocalisation/relocaliser.h"
 
 namespace ekf_slam {
-
-/// The 2D rotation by `a` [rad].
-Eigen::Matrix2d rotation2d(double a);
 
 /// One observation as a point on base_link.
 struct ObservedPoint {

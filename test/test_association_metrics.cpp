@@ -155,6 +155,44 @@ TEST(AssociationScorer, RemovalsAndUnknownLandmarks) {
 
 // --- pose metrics --------------------------------------------------------------------------------
 
+// Withholding decisions must not pay: the same accuracy, but the coverage shows what was lost.
+TEST(AssociationScorer, WithholdingKeepsAccuracyButLosesCoverage) {
+  AssociationScorer eager, shy;
+  // Landmark 0 seen five times. Eager: created at once, then paired. Shy: tentative three times.
+  eager.addScan({0}, {N}, {10}, {});
+  for (int i = 0; i < 4; ++i) eager.addScan({0}, {P}, {10}, {});
+  for (int i = 0; i < 3; ++i) shy.addScan({0}, {T}, {kNone}, {});
+  shy.addScan({0}, {N}, {10}, {});
+  shy.addScan({0}, {P}, {10}, {});
+  EXPECT_DOUBLE_EQ(eager.counts().accuracy(), 1.0);
+  EXPECT_DOUBLE_EQ(shy.counts().accuracy(), 1.0);  // tentative before mapping = TN
+  EXPECT_DOUBLE_EQ(eager.mapScore().pairing_coverage, 4.0 / 5.0);
+  EXPECT_DOUBLE_EQ(shy.mapScore().pairing_coverage, 1.0 / 5.0);
+  EXPECT_EQ(eager.mapScore().landmarks_created, 1u);
+}
+
+TEST(AssociationScorer, LandmarkPrecisionRecallAndCreated) {
+  AssociationScorer s;
+  // 0: seen 3 times, mapped once (found). 1: seen 3 times, mapped twice (duplicate: not found).
+  // 2: seen twice, never mapped (not findable). A clutter return becomes landmark 30.
+  s.addScan({0, 1, 2, kClutter}, {N, N, T, N}, {10, 20, kNone, 30}, {});
+  s.addScan({0, 1, 2}, {P, N, T}, {10, 21, kNone}, {});
+  s.addScan({0, 1}, {P, P}, {10, 20}, {});
+  // 3: seen 3 times, created, then removed (not found; created counts stay).
+  s.addScan({3}, {N}, {40}, {});
+  s.addScan({3}, {P}, {40}, {});
+  s.addScan({3}, {P}, {40}, {40});
+  const MapScore m = s.mapScore();
+  EXPECT_EQ(m.landmarks, 4u);  // 10, 20, 21, 30
+  EXPECT_EQ(m.landmarks_created, 5u);
+  EXPECT_EQ(m.true_landmarks_findable, 3u);  // 0, 1, 3
+  EXPECT_EQ(m.true_landmarks_found, 1u);     // 0
+  EXPECT_DOUBLE_EQ(m.landmark_recall, 1.0 / 3.0);
+  EXPECT_DOUBLE_EQ(m.landmark_precision, 1.0 / 4.0);  // only 10 holds its landmark alone
+  // Observations of mapped landmarks 0 and 1: 6, of which TP: 0 twice, 1 once (20, the oldest).
+  EXPECT_DOUBLE_EQ(m.pairing_coverage, 3.0 / 6.0);
+}
+
 TEST(PoseMetrics, NeesBandMatchesThePaper) {
   const NeesBand b = neesBand(50, 3, 0.95);
   EXPECT_NEAR(b.lower, 2.36, 0.005);

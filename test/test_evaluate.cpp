@@ -115,15 +115,25 @@ TEST(Evaluate, ParallelRunsEqualSerialRunsAndFilesAreWritten) {
   writeEvaluation(e, "evaluate --world tiny");
   const std::string csv = readFile(dir + "/results.csv");
   EXPECT_EQ(csv.rfind("world,associator,run,seed,accuracy,precision,recall,f1,", 0), 0u);
-  for (const char* column : {"landmarks", "true_landmarks_seen", "spurious_landmarks",
-                             "pose_rmse_m", "anees", "association_us_mean"}) {
+  for (const char* column :
+       {"landmarks", "true_landmarks_seen", "spurious_landmarks", "pose_rmse_m", "anees",
+        "association_us_mean", "pose_ate_aligned_m", "map_rmse_aligned_m", "landmarks_created",
+        "landmark_precision", "landmark_recall"}) {
     EXPECT_NE(csv.find(std::string(",") + column + ","), std::string::npos) << column;
   }
+  EXPECT_NE(csv.find(",pairing_coverage\n"), std::string::npos);
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 5);
   const std::string md = readFile(dir + "/summary.md");
   EXPECT_NE(md.find("## tiny"), std::string::npos);
   EXPECT_NE(md.find("| DJNN |"), std::string::npos);
   EXPECT_NE(md.find("| NN |"), std::string::npos);
+  EXPECT_NE(md.find("| associator | ATE aligned [m] |"), std::string::npos);
+  // Aligned metrics never exceed the unaligned ones; landmark-level scores are filled in.
+  for (const EvaluationRow& r : e.rows) {
+    EXPECT_LE(r.metrics.pose_ate_aligned_m, r.metrics.pose_rmse_m + 1e-12);
+    EXPECT_GT(r.metrics.map.pairing_coverage, 0.5);
+    EXPECT_GE(r.metrics.map.landmarks_created, r.metrics.map.landmarks);
+  }
   EXPECT_NE(readFile(dir + "/nees.csv").find("tiny,DJNN,"), std::string::npos);
 }
 

@@ -138,10 +138,18 @@ TEST_F(OfflineRunnerTest, WritesEveryFileWithItsHeaderAndRows) {
     ASSERT_EQ(f.size(), 8u) << assoc[i];
     EXPECT_LT(std::stoul(f[0]), s.scans);
     const std::string& d = f[6];
-    EXPECT_TRUE(d == "paired" || d == "new" || d == "tentative" || d == "rejected") << d;
+    EXPECT_TRUE(d == "paired" || d == "new" || d == "tentative" || d == "rejected" ||
+                d == "removed")
+        << d;
+    // The stamp keeps its nanoseconds.
+    EXPECT_EQ(f[1].size() - f[1].find('.'), 10u) << assoc[i];
     paired += d == "paired";
     created += d == "new";
-    if (d == "new") {
+    if (d == "removed") {
+      EXPECT_TRUE(f[2].empty() && f[3].empty()) << assoc[i];
+      EXPECT_TRUE(created_ids.count(f[7])) << "removed an unknown id: " << assoc[i];
+      EXPECT_EQ(ids.count(f[7]), 0u) << "a removed landmark is in the final map: " << assoc[i];
+    } else if (d == "new") {
       EXPECT_TRUE(created_ids.insert(f[7]).second) << "id created twice: " << assoc[i];
     } else if (d == "paired") {
       EXPECT_TRUE(created_ids.count(f[7])) << "paired with an unknown id: " << assoc[i];
@@ -237,7 +245,7 @@ TEST_F(OfflineRunnerTest, DumpedProblemIsReadBackByReplay) {
   // Its observations are scan 100's rows of associations.csv.
   std::size_t rows = 0;
   for (const auto& line : readLines(fs::path(o.out_dir) / "associations.csv")) {
-    if (line.rfind("100,", 0) == 0) ++rows;
+    if (line.rfind("100,", 0) == 0 && line.find(",removed,") == std::string::npos) ++rows;
   }
   EXPECT_EQ(p.observations.size(), rows);
 

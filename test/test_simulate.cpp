@@ -518,6 +518,54 @@ TEST(Simulate, OfflineRunnerMapsTheWorld) {
   EXPECT_EQ(t["tn"].get<std::uint64_t>(), direct.counts.tn);
   EXPECT_EQ(t["spurious_landmarks"].get<std::size_t>(), direct.map.spurious);
   EXPECT_NEAR(t["pose_rmse_m"].get<double>(), direct.pose_rmse_m, 1e-6);
+  EXPECT_EQ(t["landmarks_created"].get<std::uint64_t>(), direct.map.landmarks_created);
+  EXPECT_NEAR(t["pairing_coverage"].get<double>(), direct.map.pairing_coverage, 1e-12);
+  EXPECT_NEAR(t["landmark_recall"].get<double>(), direct.map.landmark_recall, 1e-12);
+  EXPECT_NEAR(t["pose_ate_aligned_m"].get<double>(), direct.pose_ate_aligned_m, 1e-6);
+  EXPECT_NEAR(t["map_rmse_aligned_m"].get<double>(), direct.map_rmse_aligned_m, 1e-6);
+  // The aligned error cannot exceed the unaligned one (the identity is one of the transforms).
+  EXPECT_LE(direct.pose_ate_aligned_m, direct.pose_rmse_m + 1e-12);
+  EXPECT_LT(direct.map_rmse_aligned_m, 1.0);
+
+  // associations.csv alone (with its removal rows) gives the same scores again.
+  std::ifstream assoc(offline.out_dir + "/associations.csv");
+  std::getline(assoc, line);
+  ASSERT_EQ(line, "scan,stamp,obs,range,bearing,diameter,decision,landmark_id,truth_id");
+  AssociationScorer rescored;
+  std::vector<LandmarkId> truth, ids, removed;
+  std::vector<Decision> decisions;
+  const auto flush = [&]() {
+    rescored.addScan(truth, decisions, ids, removed);
+    truth.clear(), ids.clear(), removed.clear(), decisions.clear();
+  };
+  std::string scan = "", field;
+  while (std::getline(assoc, line)) {
+    std::vector<std::string> f;
+    std::istringstream row(line);
+    while (std::getline(row, field, ',')) f.push_back(field);
+    if (line.back() == ',') f.emplace_back();
+    ASSERT_EQ(f.size(), 9u) << line;
+    if (f[0] != scan && !scan.empty()) flush();
+    scan = f[0];
+    if (f[6] == "removed") {
+      removed.push_back(std::stoll(f[7]));
+      continue;
+    }
+    truth.push_back(std::stoll(f[8]));
+    ids.push_back(std::stoll(f[7]));
+    decisions.push_back(f[6] == "paired"      ? Decision::kPaired
+                        : f[6] == "new"       ? Decision::kNew
+                        : f[6] == "tentative" ? Decision::kTentative
+                                              : Decision::kRejected);
+  }
+  flush();
+  EXPECT_EQ(rescored.counts().tp, direct.counts.tp);
+  EXPECT_EQ(rescored.counts().fp, direct.counts.fp);
+  EXPECT_EQ(rescored.counts().fn, direct.counts.fn);
+  EXPECT_EQ(rescored.counts().tn, direct.counts.tn);
+  EXPECT_EQ(rescored.mapScore().landmarks, direct.map.landmarks);
+  EXPECT_EQ(rescored.mapScore().landmarks_created, direct.map.landmarks_created);
+  EXPECT_EQ(rescored.mapScore().duplicates, direct.map.duplicates);
 }
 
 TEST(SimulateArguments, Parse) {

@@ -94,7 +94,8 @@ AssociationCounts AssociationScorer::addScan(const std::vector<LandmarkId>& trut
   // Judge every observation against the identities as they stood before this scan.
   for (std::size_t i = 0; i < truth.size(); ++i) {
     const LandmarkId t = truth[i];
-    if (t >= 0) seen_[t] = 1;
+    TruthTally* tally = t >= 0 ? &seen_[t] : nullptr;
+    if (tally) ++tally->observations;
     Outcome o;
     if (decision[i] == Decision::kPaired) {
       const auto it = tracks_.find(landmark[i]);
@@ -116,15 +117,15 @@ AssociationCounts AssociationScorer::addScan(const std::vector<LandmarkId>& trut
       o = mapped ? Outcome::kFalseNegative : Outcome::kTrueNegative;
     }
     scan.add(o);
+    if (tally && o == Outcome::kTruePositive) ++tally->true_positives;
     if (outcomes) (*outcomes)[i] = o;
   }
 
   // Then let the scan's observations vote for the identities of what they created / updated.
   for (std::size_t i = 0; i < truth.size(); ++i) {
-    if (decision[i] == Decision::kPaired ||
-        (decision[i] == Decision::kNew && landmark[i] != kNoLandmark)) {
-      vote(landmark[i], truth[i]);
-    }
+    const bool created = decision[i] == Decision::kNew && landmark[i] != kNoLandmark;
+    landmarks_created_ += created;
+    if (decision[i] == Decision::kPaired || created) vote(landmark[i], truth[i]);
   }
   for (LandmarkId id : removed) {
     const auto it = tracks_.find(id);
@@ -190,6 +191,7 @@ bool AssociationScorer::identity(LandmarkId id, LandmarkId* truth) const {
 MapScore AssociationScorer::mapScore() const {
   MapScore s;
   s.landmarks = tracks_.size();
+  std::size_t sole_holders = 0;
   s.true_landmarks_seen = seen_.size();
   for (const auto& [truth, ids] : holders_) {
     const std::size_t n = ids.size();
@@ -197,11 +199,33 @@ MapScore AssociationScorer::mapScore() const {
     if (truth >= 0) {
       ++s.true_landmarks_mapped;
       s.duplicates += n - 1;
+      sole_holders += n == 1;
     } else {
       s.non_landmarks += n;
     }
   }
   s.spurious = s.non_landmarks + s.duplicates;
+
+  // Landmark level: held exactly once = correct; recall over the landmarks seen often enough
+  // to be mapped; coverage over every observation of the landmarks the map holds.
+  s.landmarks_created = landmarks_created_;
+  std::uint64_t observations = 0, paired = 0;
+  for (const auto& [truth, tally] : seen_) {
+    const auto it = holders_.find(truth);
+    const std::size_t n = it == holders_.end() ? 0 : it->second.size();
+    if (tally.observations >= kMinObservationsToFind) {
+      ++s.true_landmarks_findable;
+      s.true_landmarks_found += n == 1;
+    }
+    if (n > 0) {
+      observations += tally.observations;
+      paired += tally.true_positives;
+    }
+  }
+  const auto ratio = [](double a, double b) { return b > 0 ? a / b : 1.0; };
+  s.landmark_precision = ratio(sole_holders, s.landmarks);
+  s.landmark_recall = ratio(s.true_landmarks_found, s.true_landmarks_findable);
+  s.pairing_coverage = ratio(paired, observations);
   return s;
 }
 

@@ -9,6 +9,7 @@
 
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/trajectory_metrics.h"
 
 namespace ekf_slam {
 namespace sim {
@@ -139,6 +140,8 @@ void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>&
       ++after_n_;
     }
     nees = pose_.add(estimate, cov, *true_pose);
+    estimates_.push_back(estimate);
+    truths_.push_back(*true_pose);
     error << distance, std::abs(wrapAngle(estimate(2) - (*true_pose)(2)));
     if (std::isfinite(nees) && report.stamp - first_stamp_ >= nees_skip_s_) {
       nees_sum_ += nees;
@@ -166,6 +169,27 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
   m.pose_rmse_m = have_pose ? pose_.positionRmse() : nan;
   m.heading_rmse_rad = have_pose ? pose_.headingRmse() : nan;
   m.anees = nees_n_ > 0 ? nees_sum_ / static_cast<double>(nees_n_) : nan;
+  // Aligned trajectory (ATE) and map: one rigid transform, fitted on the positions.
+  RigidTransform2 align;
+  if (!estimates_.empty()) {
+    std::vector<Eigen::Vector2d> from, to;
+    from.reserve(estimates_.size());
+    to.reserve(truths_.size());
+    for (std::size_t i = 0; i < estimates_.size(); ++i) {
+      from.push_back(estimates_[i].head<2>());
+      to.push_back(truths_[i].head<2>());
+    }
+    align = alignRigid2D(from, to);
+    double sum_pos2 = 0.0, sum_yaw2 = 0.0;
+    for (std::size_t i = 0; i < from.size(); ++i) {
+      sum_pos2 += (align.apply(from[i]) - to[i]).squaredNorm();
+      const double dyaw = wrapAngle(estimates_[i].z() + align.yaw - truths_[i].z());
+      sum_yaw2 += dyaw * dyaw;
+    }
+    const double n_pose = static_cast<double>(from.size());
+    m.pose_ate_aligned_m = std::sqrt(sum_pos2 / n_pose);
+    m.heading_rmse_aligned_rad = std::sqrt(sum_yaw2 / n_pose);
+  }
   m.nees_scans = nees_n_;
   const double n = scans_ > 0 ? static_cast<double>(scans_) : 1.0;
   m.association_us_mean = 1e6 * association_s_ / n;
@@ -177,6 +201,17 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
     m.correction = ekf.correction();
     m.correction_sigma = ekf.correctionCovariance().diagonal().cwiseSqrt();
     m.lost_events = pipeline->counters().lost_events;
+    double sum2 = 0.0;
+    for (std::size_t k = 0; k < ekf.numLandmarks() && !true_map_.empty(); ++k) {
+      LandmarkId truth = -1;
+      if (!scorer_.identity(ekf.landmarkIds()[k], &truth)) continue;
+      const auto it = true_map_.find(truth);
+      if (it == true_map_.end()) continue;
+      sum2 += (align.apply(ekf.landmark(static_cast<int>(k))) - it->second).squaredNorm();
+      ++m.map_rmse_landmarks;
+    }
+    if (m.map_rmse_landmarks > 0)
+      m.map_rmse_aligned_m = std::sqrt(sum2 / static_cast<double>(m.map_rmse_landmarks));
   }
   m.relocalisations = relocalisations_;
   m.wrong_relocalisations = wrong_relocalisations_;
@@ -203,6 +238,10 @@ RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const Pipe
   int kidnaps = 0;
   sim::Simulation simulation(world, seed);
   RunScorer scorer;
+  std::unordered_map<LandmarkId, Eigen::Vector2d> true_map;
+  for (std::size_t i = 0; i < world.landmarks.size(); ++i)
+    true_map[static_cast<LandmarkId>(i)] = world.landmarks[i];
+  scorer.setTrueMap(std::move(true_map));
   std::vector<LandmarkId> truth;
   // Fed exactly as the offline runner feeds a simulated bag: odometry, then the set of the same
   // stamp, with the bag's stamp offset.

@@ -232,6 +232,45 @@ std::string recoveryTable(const Evaluation& e, const std::string& world,
   return md.str();
 }
 
+// The map and the trajectory after the best rigid alignment, and the landmark-level scores that
+// withholding decisions cannot improve (docs/simulation.md, "Metrics").
+std::string mapTable(const Evaluation& e, const std::string& world,
+                     const std::vector<std::string>& shorts) {
+  std::ostringstream md;
+  md << "\nMap and trajectory (aligned = after the best rigid 2D alignment; landmark precision = "
+        "final landmarks alone on a true landmark / final landmarks; recall = true landmarks seen "
+     << kMinObservationsToFind
+     << "+ times held by exactly one landmark; coverage = observations of mapped landmarks "
+        "paired with them):\n\n"
+     << "| associator | ATE aligned [m] | heading aligned [rad] | map RMSE aligned [m] | created | "
+        "created / true seen | landmark precision | landmark recall | pairing coverage |\n"
+     << "|---|---|---|---|---|---|---|---|---|\n";
+  for (const std::string& a : shorts) {
+    const auto rows = select(e, world, a);
+    if (rows.empty()) continue;
+    std::vector<double> ate, yaw, map, created, per_true, prec, rec, cov;
+    for (const EvaluationRow* r : rows) {
+      const RunMetrics& m = r->metrics;
+      ate.push_back(m.pose_ate_aligned_m);
+      yaw.push_back(m.heading_rmse_aligned_rad);
+      map.push_back(m.map_rmse_aligned_m);
+      created.push_back(static_cast<double>(m.map.landmarks_created));
+      per_true.push_back(m.map.true_landmarks_seen > 0
+                             ? static_cast<double>(m.map.landmarks_created) /
+                                   static_cast<double>(m.map.true_landmarks_seen)
+                             : std::numeric_limits<double>::quiet_NaN());
+      prec.push_back(m.map.landmark_precision);
+      rec.push_back(m.map.landmark_recall);
+      cov.push_back(m.map.pairing_coverage);
+    }
+    md << "| " << a << " | " << format(spread(ate), 3) << " | " << format(spread(yaw), 4) << " | "
+       << format(spread(map), 3) << " | " << format(spread(created), 1) << " | "
+       << format(spread(per_true), 2) << " | " << format(spread(prec), 4) << " | "
+       << format(spread(rec), 4) << " | " << format(spread(cov), 4) << " |\n";
+  }
+  return md.str();
+}
+
 }  // namespace
 
 // -------------------------------------------------------------------------------------------------
@@ -417,6 +456,7 @@ std::string summaryMarkdown(const Evaluation& e, const std::string& command) {
          << format(100.0 * mc.fractionInBand(), 0) << " % | " << format(spread(us), 1) << " | "
          << format(spread(wall).mean, 2) << " | " << correctionSummary(rows, w) << " |\n";
     }
+    md << mapTable(e, world, shorts);
     if (!o.relocaliser.empty()) md << recoveryTable(e, world, shorts);
   }
   return md.str();
@@ -434,7 +474,9 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
            "odometry_correction,correction_1_name,correction_1,correction_1_sd,correction_1_true,"
            "correction_2_name,correction_2,correction_2_sd,correction_2_true,lost_events,"
            "relocalisations,wrong_relocalisations,recovery_scans,recovery_s,"
-           "pose_rmse_after_recovery_m\n";
+           "pose_rmse_after_recovery_m,pose_ate_aligned_m,heading_rmse_aligned_rad,"
+           "map_rmse_aligned_m,landmarks_created,true_landmarks_findable,true_landmarks_found,"
+           "landmark_precision,landmark_recall,pairing_coverage\n";
     for (const EvaluationRow& r : e.rows) {
       const RunMetrics& m = r.metrics;
       csv << r.world << ',' << r.associator << ',' << r.run << ',' << r.seed << ','
@@ -467,6 +509,11 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
       if (std::isfinite(m.recovery_s)) csv << m.recovery_s;
       csv << ',';
       if (std::isfinite(m.pose_rmse_after_recovery_m)) csv << m.pose_rmse_after_recovery_m;
+      csv << ',' << m.pose_ate_aligned_m << ',' << m.heading_rmse_aligned_rad << ','
+          << m.map_rmse_aligned_m << ',' << m.map.landmarks_created << ','
+          << m.map.true_landmarks_findable << ',' << m.map.true_landmarks_found << ','
+          << m.map.landmark_precision << ',' << m.map.landmark_recall << ','
+          << m.map.pairing_coverage;
       csv << '\n';
     }
   }

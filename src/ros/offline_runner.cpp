@@ -17,6 +17,7 @@
 #include <memory>
 #include <sstream>
 #include <stdexcept>
+#include <unordered_map>
 #include <utility>
 
 #include <geometry_msgs/PointStamped.h>
@@ -266,7 +267,15 @@ struct AssociationRow {
   Decision decision;
   LandmarkId landmark;
   std::int64_t truth_id;
+  bool removal = false;  // a landmark removed after the scan (obs, range, ... empty)
 };
+
+// Stamps in full: epoch stamps (1.2e9 s) need 10 digits before the point and 9 after.
+std::string stampText(double stamp) {
+  char buf[40];
+  std::snprintf(buf, sizeof(buf), "%.9f", stamp);
+  return buf;
+}
 
 // --- statistics ----------------------------------------------------------------------------------
 
@@ -413,7 +422,14 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   }
   std::sort(bag.ground_truth.begin(), bag.ground_truth.end(),
             [](const auto& a, const auto& b) { return a.first < b.first; });
-  auto scorer = std::make_unique<RunScorer>();
+  std::unordered_map<LandmarkId, Eigen::Vector2d> true_map(bag.true_map.begin(),
+                                                           bag.true_map.end());
+  const auto newScorer = [&true_map]() {
+    auto s = std::make_unique<RunScorer>();
+    s->setTrueMap(true_map);
+    return s;
+  };
+  auto scorer = newScorer();
   std::vector<std::int64_t> truth;
 
   // Relocalisation events, for metrics.json.
@@ -467,6 +483,10 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
       rows.push_back({r.scan, static_cast<std::uint32_t>(i), r.stamp, ob.z.x(), ob.z.y(),
                       ob.descriptor, d, id, truth_id});
     }
+    // Removals, so that the scores can be recomputed from associations.csv alone.
+    for (const LandmarkId id : r.removed)
+      rows.push_back(
+          {r.scan, 0, r.stamp, 0.0, 0.0, 0.0, Decision::kRejected, id, kNoTruthId, true});
     if (score) {
       Eigen::Vector3d true_pose;
       const bool have_pose = truePoseAt(bag.ground_truth, r.stamp, &true_pose);
@@ -506,7 +526,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
               << std::defaultfloat << " s: the map is reset\n";
           pipeline.reset();
           // Landmark ids start again: scoring restarts with the new map.
-          scorer = std::make_unique<RunScorer>();
+          scorer = newScorer();
           break;
         case InputSequencer<InputRef>::Kind::kScan:
           if (o.dump_problem_scan && scans_done == *o.dump_problem_scan) capturing->arm();
@@ -564,8 +584,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     for (const std::string& n : names) traj << ',' << n << ',' << n << "_sd";
     traj << '\n';
     for (const PoseRow& p : poses) {
-      traj << p.stamp << ',' << p.pose.x() << ',' << p.pose.y() << ',' << p.pose.z() << ','
-           << p.variance.x() << ',' << p.variance.y() << ',' << p.variance.z();
+      traj << stampText(p.stamp) << ',' << p.pose.x() << ',' << p.pose.y() << ',' << p.pose.z()
+           << ',' << p.variance.x() << ',' << p.variance.y() << ',' << p.variance.z();
       for (std::size_t i = 0; i < names.size(); ++i)
         traj << ',' << p.correction(i) << ',' << p.correction_sd(i);
       traj << '\n';
@@ -574,8 +594,13 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     assoc << "scan,stamp,obs,range,bearing,diameter,decision,landmark_id"
           << (bag.has_truth_ids ? ",truth_id" : "") << "\n";
     for (const AssociationRow& a : rows) {
-      assoc << a.scan << ',' << a.stamp << ',' << a.obs << ',' << a.range << ',' << a.bearing << ','
-            << a.diameter << ',' << toString(a.decision) << ',' << a.landmark;
+      assoc << a.scan << ',' << stampText(a.stamp) << ',';
+      if (a.removal) {
+        assoc << ",,,,removed," << a.landmark << (bag.has_truth_ids ? "," : "") << '\n';
+        continue;
+      }
+      assoc << a.obs << ',' << a.range << ',' << a.bearing << ',' << a.diameter << ','
+            << toString(a.decision) << ',' << a.landmark;
       if (bag.has_truth_ids) assoc << ',' << a.truth_id;
       assoc << '\n';
     }
@@ -608,7 +633,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     std::ofstream g = openOutput(o.out_dir + "/ground_truth.csv");
     g << "stamp,x,y,yaw\n";
     for (const auto& [t, p] : bag.ground_truth)
-      g << t << ',' << p.x() << ',' << p.y() << ',' << p.z() << '\n';
+      g << stampText(t) << ',' << p.x() << ',' << p.y() << ',' << p.z() << '\n';
   }
   if (!bag.true_map.empty()) {
     std::ofstream g = openOutput(o.out_dir + "/true_landmarks.csv");
@@ -643,8 +668,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     for (std::size_t i = 0; i < gps.size(); ++i) {
       const StampedPoint& f = gps[i];
       const Eigen::Vector2d m = Rt * (f.position - gps_error.alignment.translation);
-      g << f.stamp << ',' << f.position.x() << ',' << f.position.y() << ',' << m.x() << ',' << m.y()
-        << ',' << (gps_faulty[i] ? 1 : 0) << '\n';
+      g << stampText(f.stamp) << ',' << f.position.x() << ',' << f.position.y() << ',' << m.x()
+        << ',' << m.y() << ',' << (gps_faulty[i] ? 1 : 0) << '\n';
     }
   }
 
@@ -733,28 +758,43 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   j["relocalisation_events"] = relocalisation_events;
   if (score) {
     const RunMetrics m = scorer->metrics(&pipeline);
-    j["truth"] = {{"accuracy", m.counts.accuracy()},
-                  {"precision", m.counts.precision()},
-                  {"recall", m.counts.recall()},
-                  {"f1", m.counts.f1()},
-                  {"tp", m.counts.tp},
-                  {"fp", m.counts.fp},
-                  {"fn", m.counts.fn},
-                  {"tn", m.counts.tn},
-                  {"scored_scans", m.scans},
-                  {"landmarks", m.map.landmarks},
-                  {"true_landmarks_seen", m.map.true_landmarks_seen},
-                  {"true_landmarks_mapped", m.map.true_landmarks_mapped},
-                  {"spurious_landmarks", m.map.spurious},
-                  {"non_landmarks", m.map.non_landmarks},
-                  {"duplicates", m.map.duplicates},
-                  {"unknown_pairings", m.unknown_pairings},
-                  {"pose_rmse_m", number(m.pose_rmse_m)},
-                  {"heading_rmse_rad", number(m.heading_rmse_rad)},
-                  {"anees", number(m.anees)},
-                  {"nees_scans", m.nees_scans},
-                  {"association_us_mean", number(m.association_us_mean)},
-                  {"ground_truth_poses", bag.ground_truth.size()}};
+    j["truth"] = {
+        {"accuracy", m.counts.accuracy()},
+        {"precision", m.counts.precision()},
+        {"recall", m.counts.recall()},
+        {"f1", m.counts.f1()},
+        {"tp", m.counts.tp},
+        {"fp", m.counts.fp},
+        {"fn", m.counts.fn},
+        {"tn", m.counts.tn},
+        {"scored_scans", m.scans},
+        {"landmarks", m.map.landmarks},
+        {"true_landmarks_seen", m.map.true_landmarks_seen},
+        {"true_landmarks_mapped", m.map.true_landmarks_mapped},
+        {"spurious_landmarks", m.map.spurious},
+        {"non_landmarks", m.map.non_landmarks},
+        {"duplicates", m.map.duplicates},
+        {"unknown_pairings", m.unknown_pairings},
+        {"landmarks_created", m.map.landmarks_created},
+        {"landmarks_created_per_true_landmark",
+         number(m.map.true_landmarks_seen > 0
+                    ? static_cast<double>(m.map.landmarks_created) / m.map.true_landmarks_seen
+                    : std::nan(""))},
+        {"true_landmarks_findable", m.map.true_landmarks_findable},
+        {"true_landmarks_found", m.map.true_landmarks_found},
+        {"landmark_precision", m.map.landmark_precision},
+        {"landmark_recall", m.map.landmark_recall},
+        {"pairing_coverage", m.map.pairing_coverage},
+        {"pose_rmse_m", number(m.pose_rmse_m)},
+        {"heading_rmse_rad", number(m.heading_rmse_rad)},
+        {"pose_ate_aligned_m", number(m.pose_ate_aligned_m)},
+        {"heading_rmse_aligned_rad", number(m.heading_rmse_aligned_rad)},
+        {"map_rmse_aligned_m", number(m.map_rmse_aligned_m)},
+        {"map_rmse_landmarks", m.map_rmse_landmarks},
+        {"anees", number(m.anees)},
+        {"nees_scans", m.nees_scans},
+        {"association_us_mean", number(m.association_us_mean)},
+        {"ground_truth_poses", bag.ground_truth.size()}};
   }
   j["write_s"] = secondsSince(t_write);  // CSV files and this file, not the picture
   const std::string text = j.dump(2) + "\n";

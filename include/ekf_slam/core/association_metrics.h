@@ -60,7 +60,27 @@ struct MapScore {
   std::size_t non_landmarks = 0;          ///< identity is a mover or clutter
   std::size_t duplicates = 0;             ///< extra landmarks sharing a static identity
   std::size_t spurious = 0;               ///< non_landmarks + duplicates
+
+  // Landmark-level scores: what the map holds, not how often the associator answered, so that an
+  // associator cannot score by withholding decisions (docs/simulation.md, "Metrics").
+  std::uint64_t landmarks_created = 0;  ///< landmarks the run created (kNew), removed ones too
+  /// Static landmarks observed at least kMinObservationsToFind times (the recall's denominator).
+  std::size_t true_landmarks_findable = 0;
+  /// Of those, the ones exactly one final landmark holds (no duplicate, not missing).
+  std::size_t true_landmarks_found = 0;
+  /// Final landmarks that are the only holder of a static landmark / all final landmarks (1
+  /// for an empty map: it claims nothing).
+  double landmark_precision = 1.0;
+  /// true_landmarks_found / true_landmarks_findable (1 when nothing was findable).
+  double landmark_recall = 1.0;
+  /// Share of the observations of the true landmarks the final map holds that were paired with
+  /// that landmark's representative (TP): withheld, tentative and wrongly paired ones all count
+  /// against it. The observation that created a landmark counts too, so 1 is out of reach.
+  double pairing_coverage = 1.0;
 };
+
+/// A true landmark counts as findable (landmark recall) once observed this often.
+constexpr std::uint32_t kMinObservationsToFind = 3;
 
 class AssociationScorer {
  public:
@@ -110,7 +130,13 @@ class AssociationScorer {
   std::unordered_map<LandmarkId, Track> tracks_;
   /// truth -> the map landmarks that have it as identity, oldest (lowest id) first.
   std::unordered_map<LandmarkId, std::set<LandmarkId>> holders_;
-  std::unordered_map<LandmarkId, char> seen_;  ///< static truths observed
+  /// Per static truth observed: its observations and how many were TP.
+  struct TruthTally {
+    std::uint32_t observations = 0;
+    std::uint32_t true_positives = 0;
+  };
+  std::unordered_map<LandmarkId, TruthTally> seen_;
+  std::uint64_t landmarks_created_ = 0;
   AssociationCounts counts_;
   std::uint64_t scans_ = 0;
   std::uint64_t unknown_pairings_ = 0;

@@ -16,6 +16,8 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -58,8 +60,16 @@ struct RunMetrics {
   std::uint64_t observations = 0;
   std::uint64_t unknown_pairings = 0;   ///< AssociationScorer::unknownPairings()
   std::uint64_t identity_switches = 0;  ///< AssociationScorer::identitySwitches()
-  double pose_rmse_m = 0.0;             ///< position RMSE over the scans
+  double pose_rmse_m = 0.0;             ///< position RMSE over the scans, frames as given
   double heading_rmse_rad = 0.0;
+  /// The same after the rigid transform that best aligns the estimated positions with the true
+  /// ones (alignRigid2D): what a run whose map frame is not the truth's frame can be judged on.
+  double pose_ate_aligned_m = std::numeric_limits<double>::quiet_NaN();
+  double heading_rmse_aligned_rad = std::numeric_limits<double>::quiet_NaN();
+  /// RMSE of the final landmarks whose identity is a static true landmark (duplicates included),
+  /// after the same alignment; NaN without a true map (RunScorer::setTrueMap).
+  double map_rmse_aligned_m = std::numeric_limits<double>::quiet_NaN();
+  std::uint64_t map_rmse_landmarks = 0;  ///< landmarks in that RMSE
   /// Mean NEES of the pose over the scans after the first `nees_skip_s` (RunScorer) with a valid
   /// covariance; NaN when none.
   double anees = 0.0;
@@ -130,6 +140,11 @@ class RunScorer {
   /// The vehicle was kidnapped since the last scan: recovery is timed from the next scan.
   void markKidnap();
 
+  /// True positions of the static landmarks (truth id -> position), for the map error.
+  void setTrueMap(std::unordered_map<LandmarkId, Eigen::Vector2d> true_map) {
+    true_map_ = std::move(true_map);
+  }
+
   /// Everything so far. `pipeline` supplies the final map size and counters (may be null).
   RunMetrics metrics(const SlamPipeline* pipeline) const;
   /// NEES per scored scan, in order (NaN where invalid or without truth): for Monte Carlo ANEES.
@@ -149,6 +164,9 @@ class RunScorer {
   double association_s_ = 0.0, update_s_ = 0.0;
   std::vector<double> nees_;
   std::vector<Eigen::Vector2d> errors_;
+  // Estimated and true poses of the scans with a true pose, for the aligned metrics.
+  std::vector<Eigen::Vector3d> estimates_, truths_;
+  std::unordered_map<LandmarkId, Eigen::Vector2d> true_map_;
   // Recovery.
   bool kidnap_pending_ = false, kidnapped_ = false, recovered_ = false;
   std::uint64_t kidnap_scan_ = 0;

@@ -758,43 +758,43 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   j["relocalisation_events"] = relocalisation_events;
   if (score) {
     const RunMetrics m = scorer->metrics(&pipeline);
-    j["truth"] = {
-        {"accuracy", m.counts.accuracy()},
-        {"precision", m.counts.precision()},
-        {"recall", m.counts.recall()},
-        {"f1", m.counts.f1()},
-        {"tp", m.counts.tp},
-        {"fp", m.counts.fp},
-        {"fn", m.counts.fn},
-        {"tn", m.counts.tn},
-        {"scored_scans", m.scans},
-        {"landmarks", m.map.landmarks},
-        {"true_landmarks_seen", m.map.true_landmarks_seen},
-        {"true_landmarks_mapped", m.map.true_landmarks_mapped},
-        {"spurious_landmarks", m.map.spurious},
-        {"non_landmarks", m.map.non_landmarks},
-        {"duplicates", m.map.duplicates},
-        {"unknown_pairings", m.unknown_pairings},
-        {"landmarks_created", m.map.landmarks_created},
-        {"landmarks_created_per_true_landmark",
-         number(m.map.true_landmarks_seen > 0
-                    ? static_cast<double>(m.map.landmarks_created) / m.map.true_landmarks_seen
-                    : std::nan(""))},
-        {"true_landmarks_findable", m.map.true_landmarks_findable},
-        {"true_landmarks_found", m.map.true_landmarks_found},
-        {"landmark_precision", m.map.landmark_precision},
-        {"landmark_recall", m.map.landmark_recall},
-        {"pairing_coverage", m.map.pairing_coverage},
-        {"pose_rmse_m", number(m.pose_rmse_m)},
-        {"heading_rmse_rad", number(m.heading_rmse_rad)},
-        {"pose_ate_aligned_m", number(m.pose_ate_aligned_m)},
-        {"heading_rmse_aligned_rad", number(m.heading_rmse_aligned_rad)},
-        {"map_rmse_aligned_m", number(m.map_rmse_aligned_m)},
-        {"map_rmse_landmarks", m.map_rmse_landmarks},
-        {"anees", number(m.anees)},
-        {"nees_scans", m.nees_scans},
-        {"association_us_mean", number(m.association_us_mean)},
-        {"ground_truth_poses", bag.ground_truth.size()}};
+    const double created_per_true =
+        m.map.true_landmarks_seen > 0
+            ? static_cast<double>(m.map.landmarks_created) / m.map.true_landmarks_seen
+            : std::nan("");
+    j["truth"] = {{"accuracy", m.counts.accuracy()},
+                  {"precision", m.counts.precision()},
+                  {"recall", m.counts.recall()},
+                  {"f1", m.counts.f1()},
+                  {"tp", m.counts.tp},
+                  {"fp", m.counts.fp},
+                  {"fn", m.counts.fn},
+                  {"tn", m.counts.tn},
+                  {"scored_scans", m.scans},
+                  {"landmarks", m.map.landmarks},
+                  {"true_landmarks_seen", m.map.true_landmarks_seen},
+                  {"true_landmarks_mapped", m.map.true_landmarks_mapped},
+                  {"spurious_landmarks", m.map.spurious},
+                  {"non_landmarks", m.map.non_landmarks},
+                  {"duplicates", m.map.duplicates},
+                  {"unknown_pairings", m.unknown_pairings},
+                  {"landmarks_created", m.map.landmarks_created},
+                  {"landmarks_created_per_true_landmark", number(created_per_true)},
+                  {"true_landmarks_findable", m.map.true_landmarks_findable},
+                  {"true_landmarks_found", m.map.true_landmarks_found},
+                  {"landmark_precision", m.map.landmark_precision},
+                  {"landmark_recall", m.map.landmark_recall},
+                  {"pairing_coverage", m.map.pairing_coverage},
+                  {"pose_rmse_m", number(m.pose_rmse_m)},
+                  {"heading_rmse_rad", number(m.heading_rmse_rad)},
+                  {"pose_ate_aligned_m", number(m.pose_ate_aligned_m)},
+                  {"heading_rmse_aligned_rad", number(m.heading_rmse_aligned_rad)},
+                  {"map_rmse_aligned_m", number(m.map_rmse_aligned_m)},
+                  {"map_rmse_landmarks", m.map_rmse_landmarks},
+                  {"anees", number(m.anees)},
+                  {"nees_scans", m.nees_scans},
+                  {"association_us_mean", number(m.association_us_mean)},
+                  {"ground_truth_poses", bag.ground_truth.size()}};
   }
   j["write_s"] = secondsSince(t_write);  // CSV files and this file, not the picture
   const std::string text = j.dump(2) + "\n";

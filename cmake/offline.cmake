@@ -5,7 +5,7 @@
 target_sources(ekf_slam_core PRIVATE ${PROJECT_SOURCE_DIR}/src/core/trajectory_metrics.cpp)
 
 # The runner feeds the bag through the node's conversions, InputSequencer and SlamPipeline.
-add_library(ekf_slam_offline_runner src/ros/offline_runner.cpp)
+add_library(ekf_slam_offline_runner src/ros/offline_runner.cpp src/ros/checked_bag_reader.cpp)
 target_include_directories(ekf_slam_offline_runner PUBLIC include)
 target_link_libraries(ekf_slam_offline_runner
   PUBLIC ekf_slam_conversions ekf_slam_ros ekf_slam_tools ekf_slam_node ${catkin_LIBRARIES}

@@ -1,6 +1,7 @@
 # SLAM pipeline (ROS-free core): pipeline, input sequencer, pipeline config (issue 4).
 target_sources(ekf_slam_core PRIVATE
   ${PROJECT_SOURCE_DIR}/src/core/slam_pipeline.cpp
+  ${PROJECT_SOURCE_DIR}/src/core/scan_geometry.cpp
   ${PROJECT_SOURCE_DIR}/src/core/input_sequencer.cpp
   ${PROJECT_SOURCE_DIR}/src/core/pipeline_config.cpp)
 

@@ -134,6 +134,8 @@ class EkfSlamNode {
   /// Hands every released item to the pipeline.
   void drain();
   void process(const SensorInput& input, double stamp);
+  /// Warns about odometry the pipeline just rejected (non-finite, implausible, no orientation).
+  void warnRejectedOdometry();
   void publish(const ScanReport& report);
   /// map -> odom from the pose at the last scan and odom -> base_frame at its stamp.
   void updateMapToOdom();
@@ -220,6 +222,7 @@ class EkfSlamNode {
   std::uint64_t latency_count_ = 0;
   std::uint64_t flushes_ = 0;
   std::uint64_t resets_ = 0;
+  PipelineCounters warned_;  ///< counters at the last odometry warning
 };
 
 /// The whole node: construct, spin, report. Returns the process exit code (non-zero when the

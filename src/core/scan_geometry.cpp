@@ -16,9 +16,10 @@ const char* scanGeometryError(std::size_t beams, double angle_min, double angle_
   const double slack = inc * (1.0 + 1e-3) + 1e-6;
   if (span != 0.0 && (span > 0.0) != (angle_increment > 0.0) && std::abs(span) > 1e-6)
     return "the sign of angle_increment contradicts angle_min -> angle_max";
+  if (std::abs(span) > 2.0 * M_PI + slack)
+    return "angle_min -> angle_max spans more than a full turn";
+  // Too many or too few beams for the angles, or an increment that does not fit them.
   const double covered = static_cast<double>(beams - 1) * inc;
-  if (covered > 2.0 * M_PI + slack || std::abs(span) > 2.0 * M_PI + slack)
-    return "the beams span more than a full turn (absurd angle_increment or angles)";
   if (std::abs(covered - std::abs(span)) > slack)
     return "the number of ranges does not match angle_min, angle_max and angle_increment";
   return nullptr;

@@ -5,6 +5,7 @@
 #include <set>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <nlohmann/json.hpp>
 
@@ -120,6 +121,15 @@ void AssociationProblem::validate(const std::string& origin) const {
   if ((covariance.diagonal().array() < 0.0).any()) {
     fail(origin, "covariance must have a non-negative diagonal");
   }
+  // An indefinite covariance makes innovation covariances indefinite: every associator would
+  // then gate on negative distances and they disagree wildly (issue 15). Rounding is allowed.
+  const Eigen::VectorXd eig =
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(covariance, Eigen::EigenvaluesOnly)
+          .eigenvalues();
+  if (eig.minCoeff() < -1e-9 * std::max(1.0, eig.cwiseAbs().maxCoeff())) {
+    fail(origin, "covariance must be positive semi-definite (smallest eigenvalue " +
+                     std::to_string(eig.minCoeff()) + ")");
+  }
   if (!sensor_offset.allFinite()) fail(origin, "sensor_offset must be finite");
   if (!R.allFinite() || std::abs(R(0, 1) - R(1, 0)) > 1e-12 * R.cwiseAbs().maxCoeff() ||
       R(0, 0) <= 0.0 || R.determinant() <= 0.0) {
@@ -144,7 +154,7 @@ AssociationProblem parseAssociationProblem(const std::string& json_text,
   Json j;
   try {
     j = Json::parse(json_text);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // syntax, or a number out of range (1e400)
     fail(origin, std::string("not valid JSON: ") + e.what());
   }
   if (!j.is_object()) fail(origin, "expected a JSON object");

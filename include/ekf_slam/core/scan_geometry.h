@@ -11,7 +11,7 @@ namespace ekf_slam {
 /// Beam i is at angle_min + i * angle_increment; angle_max must be the last beam's angle, within
 /// one increment (drivers differ on whether angle_max is the last beam or one past it). Rejected:
 /// non-finite angles, a zero increment, an increment whose sign contradicts angle_min ->
-/// angle_max, more than a full turn, and a beam count that does not match the angles.
+/// angle_max, more than a full turn, and a beam count or increment that does not fit the angles.
 const char* scanGeometryError(std::size_t beams, double angle_min, double angle_max,
                               double angle_increment);
 

@@ -267,6 +267,15 @@ TEST(ReplayAssociationCommand, FailsClearly) {
                                  "observations": []})";
   EXPECT_EQ(run("--problem " + overflow + " --associator NN", &out, true), 1);
   EXPECT_NE(out.find(overflow + ": not valid JSON"), std::string::npos) << out;
+  // A degenerate R: NN pairs two observations with one landmark, their joint covariance is
+  // singular, the distance infinite: an error, never rc 0 with "inf".
+  AssociationProblem p = readAssociationProblem(kData + "/shifted_row.json");
+  p.R << 0.01, 0.0, 0.0, 1e-308;
+  const std::string degenerate = testing::TempDir() + "/degenerate.json";
+  writeAssociationProblem(p, degenerate);
+  EXPECT_EQ(run("--problem " + degenerate + " --associator NN", &out, true), 1);
+  EXPECT_EQ(out.find("joint_mahalanobis inf"), std::string::npos) << out;
+  EXPECT_NE(out.find(degenerate + ": the joint Mahalanobis distance"), std::string::npos) << out;
   EXPECT_EQ(run("--problem " + kData + "/clear.json", &out, true), 2);
   EXPECT_NE(out.find("usage"), std::string::npos) << out;
 }

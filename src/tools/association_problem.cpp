@@ -21,10 +21,14 @@ using Json = nlohmann::json;
   throw ProblemError(origin + ": " + what);
 }
 
+// Larger magnitudes overflow the arithmetic of an association (squares of squares).
+constexpr double kMaxMagnitude = 1e100;
+
 double number(const Json& j, const std::string& origin, const std::string& field) {
   if (!j.is_number()) fail(origin, field + " must be a number");
   const double v = j.get<double>();
   if (!std::isfinite(v)) fail(origin, field + " must be finite");
+  if (std::abs(v) > kMaxMagnitude) fail(origin, field + " must lie within +-1e100");
   return v;
 }
 
@@ -114,8 +118,11 @@ void AssociationProblem::validate(const std::string& origin) const {
     fail(origin, "covariance must be " + std::to_string(n) + " x " + std::to_string(n));
   }
   if (!covariance.allFinite()) fail(origin, "covariance must be finite");
-  const double scale = std::max(1.0, covariance.cwiseAbs().maxCoeff());
-  if ((covariance - covariance.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale) {
+  // Entry by entry: a tolerance relative to the largest entry would let a huge variance hide
+  // any asymmetry elsewhere.
+  const Eigen::ArrayXXd a = covariance.array();
+  const Eigen::ArrayXXd tolerance = 1e-9 * a.abs().max(a.transpose().abs()).max(1.0);
+  if (((a - a.transpose()).abs() > tolerance).any()) {
     fail(origin, "covariance must be symmetric");
   }
   if ((covariance.diagonal().array() < 0.0).any()) {

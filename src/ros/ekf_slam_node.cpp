@@ -240,6 +240,8 @@ void EkfSlamNode::readParameters() {
 std::uint64_t EkfSlamNode::SeqGaps::check(std::uint32_t seq) {
   // seq 0 is what publishers that do not count leave; a huge step is a restarted publisher.
   std::uint64_t gap = 0;
+  if (!seen && seq < 1000000u) before_first = seq;
+  seen = true;
   if (have && seq > last + 1 && seq - last < 1000000u) gap = seq - last - 1;
   missing += gap;
   have = seq != 0;
@@ -295,10 +297,18 @@ void EkfSlamNode::handle(const Inbound& in) {
 void EkfSlamNode::handleOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
   ++odometry_received_;
   ++odom_rate_.count;
+  const bool first = !odom_gaps_.seen;
   if (const std::uint64_t gap = odom_gaps_.check(msg->header.seq)) {
     ROS_WARN_THROTTLE(5.0, "ekf_slam: %lu odometry messages missing (header.seq gaps; %lu so far)",
                       static_cast<unsigned long>(gap),
                       static_cast<unsigned long>(odom_gaps_.missing));
+  }
+  if (first && odom_gaps_.before_first > 0) {
+    ROS_WARN(
+        "ekf_slam: the first odometry message received has header.seq %lu: that many were "
+        "published before (node started late, or the publisher did not wait for the "
+        "subscription, e.g. rosbag play without -d)",
+        static_cast<unsigned long>(odom_gaps_.before_first));
   }
   // The twist is taken as base_frame's motion and the pose as odom_frame -> base_frame: say so
   // when the message names other frames (empty names are accepted as "unspecified").
@@ -746,6 +756,9 @@ void EkfSlamNode::onDiagnosticsTimer(const ros::WallTimerEvent&) {
       keyValue("odometry missing (seq gaps)", odom_gaps_.missing),
       keyValue("scans missing (seq gaps)", scan_gaps_.missing),
       keyValue("observations missing (seq gaps)", observation_gaps_.missing),
+      keyValue("odometry before the first received (seq)", odom_gaps_.before_first),
+      keyValue("scans before the first received (seq)",
+               scan_gaps_.before_first + observation_gaps_.before_first),
       keyValue("inbox overflow drops", overflow),
       keyValue("skipped without tf", skipped_no_tf_),
       keyValue("skipped zero stamps", skipped_bad_stamp_),
@@ -906,15 +919,17 @@ std::string EkfSlamNode::summary() const {
   }
   out << "scans received " << scans_received_ << ", processed " << scans_processed_
       << ", missing upstream (seq gaps) " << scan_gaps_.missing + observation_gaps_.missing
+      << ", before the first (seq) " << scan_gaps_.before_first + observation_gaps_.before_first
       << ", skipped without tf " << skipped_no_tf_ << ", zero stamps " << skipped_bad_stamp_
       << "; odometry received " << odometry_received_ << ", missing (seq gaps) "
-      << odom_gaps_.missing << ", used " << c.odometry << "; inbox overflow " << overflow
-      << "; late odometry " << s.late_odometry << ", late scans " << s.late_scans << ", time jumps "
-      << s.time_jumps << ", out-of-range stamps dropped " << s.dropped_out_of_range
-      << ", released by latency " << s.released_by_latency << ", input-timeout flushes " << flushes_
-      << "; empty scans " << c.empty_scans << ", inconsistent scans " << c.inconsistent_scans
-      << ", duplicate scans " << c.duplicate_scans << ", rejected odometry " << c.rejected_odometry
-      << " (non-finite), " << c.implausible_odometry << " (implausible), " << c.invalid_orientations
+      << odom_gaps_.missing << ", before the first (seq) " << odom_gaps_.before_first << ", used "
+      << c.odometry << "; inbox overflow " << overflow << "; late odometry " << s.late_odometry
+      << ", late scans " << s.late_scans << ", time jumps " << s.time_jumps
+      << ", out-of-range stamps dropped " << s.dropped_out_of_range << ", released by latency "
+      << s.released_by_latency << ", input-timeout flushes " << flushes_ << "; empty scans "
+      << c.empty_scans << ", inconsistent scans " << c.inconsistent_scans << ", duplicate scans "
+      << c.duplicate_scans << ", rejected odometry " << c.rejected_odometry << " (non-finite), "
+      << c.implausible_odometry << " (implausible), " << c.invalid_orientations
       << " (no orientation), rejected updates " << c.rejected_updates << "; landmarks "
       << pipeline_->ekf().numLandmarks();
   return out.str();

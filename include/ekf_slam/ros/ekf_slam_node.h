@@ -106,8 +106,13 @@ class EkfSlamNode {
   /// Messages missing by header.seq, per input (transport drops or upstream losses).
   struct SeqGaps {
     std::uint64_t missing = 0;
+    /// header.seq of the first message ever received: that many were published before this
+    /// node received any (it started late, or a fast publisher such as `rosbag play -r 100`
+    /// without -d sent them before the subscription was connected).
+    std::uint64_t before_first = 0;
     std::uint32_t last = 0;
     bool have = false;
+    bool seen = false;
     /// Returns the number of messages missing before this one.
     std::uint64_t check(std::uint32_t seq);
   };

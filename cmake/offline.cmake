@@ -5,7 +5,7 @@
 target_sources(ekf_slam_core PRIVATE ${PROJECT_SOURCE_DIR}/src/core/trajectory_metrics.cpp)
 
 # The runner feeds the bag through the node's conversions, InputSequencer and SlamPipeline.
-add_library(ekf_slam_offline_runner src/ros/offline_runner.cpp)
+add_library(ekf_slam_offline_runner src/ros/offline_runner.cpp src/ros/checked_bag_reader.cpp)
 target_include_directories(ekf_slam_offline_runner PUBLIC include)
 target_link_libraries(ekf_slam_offline_runner
   PUBLIC ekf_slam_conversions ekf_slam_ros ekf_slam_tools ekf_slam_node ${catkin_LIBRARIES}
@@ -47,3 +47,11 @@ target_link_libraries(relocalisation_experiment ekf_slam_offline_runner
 add_dependencies(relocalisation_experiment ekf_slam_relocalisation_plugins)
 set_target_properties(relocalisation_experiment PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${BIN_DIR})
 install(TARGETS relocalisation_experiment RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+
+# Fault injection (issue 15): faulty copies of a Victoria Park window through the runner.
+if(CATKIN_ENABLE_TESTING)
+  catkin_add_gtest(test_bag_faults test/test_bag_faults.cpp)
+  target_include_directories(test_bag_faults PRIVATE ${PROJECT_SOURCE_DIR}/test)
+  target_link_libraries(test_bag_faults ekf_slam_offline_runner nlohmann_json::nlohmann_json)
+  add_dependencies(test_bag_faults ekf_slam_association_plugins)
+endif()

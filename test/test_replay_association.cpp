@@ -1,6 +1,8 @@
 // The replay tool and its library function on the example problems of test/data. Expected
 // pairings were derived by hand from the problems' geometry (the comments say why) and the joint
 // Mahalanobis distances independently in numpy (numeric Jacobians, full H P H^T + R).
+#include <fstream>
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -209,6 +211,12 @@ TEST(AssociationProblem, RejectsMalformedProblems) {
   expectRejected(R"({"state": [0,0,0], )" + cov3 + R"(, "observations": [[1, 0, 2]]})",
                  "observations[0]");
   expectRejected(R"({"state": [0,0,"a"], )" + cov3 + R"(, "observations": []})", "state[2]");
+  // Symmetric, non-negative diagonal, but indefinite (eigenvalues 3 and -1).
+  expectRejected(R"({"state": [0,0,0], "covariance": [[1,2,0],[2,1,0],[0,0,1]],
+                     "observations": []})",
+                 "positive semi-definite");
+  expectRejected(R"({"state": [0,0,1e400], )" + cov3 + R"(, "observations": []})",
+                 "not valid JSON");
   EXPECT_NO_THROW(parseAssociationProblem(ok + R"(, "_note": "annotations are free"})"));
   EXPECT_THROW(readAssociationProblem(kData + "/does_not_exist.json"), ProblemError);
 }
@@ -253,6 +261,21 @@ TEST(ReplayAssociationCommand, FailsClearly) {
       << out;
   EXPECT_EQ(run("--problem /nonexistent.json --associator DJNN", &out, true), 1);
   EXPECT_NE(out.find("/nonexistent.json: cannot open"), std::string::npos) << out;
+  // A number beyond double: the error names the file.
+  const std::string overflow = testing::TempDir() + "/overflow.json";
+  std::ofstream(overflow) << R"({"state": [0,0,1e999], "covariance": [1,0,0,0,1,0,0,0,1],
+                                 "observations": []})";
+  EXPECT_EQ(run("--problem " + overflow + " --associator NN", &out, true), 1);
+  EXPECT_NE(out.find(overflow + ": not valid JSON"), std::string::npos) << out;
+  // A degenerate R: NN pairs two observations with one landmark, their joint covariance is
+  // singular, the distance infinite: an error, never rc 0 with "inf".
+  AssociationProblem p = readAssociationProblem(kData + "/shifted_row.json");
+  p.R << 0.01, 0.0, 0.0, 1e-308;
+  const std::string degenerate = testing::TempDir() + "/degenerate.json";
+  writeAssociationProblem(p, degenerate);
+  EXPECT_EQ(run("--problem " + degenerate + " --associator NN", &out, true), 1);
+  EXPECT_EQ(out.find("joint_mahalanobis inf"), std::string::npos) << out;
+  EXPECT_NE(out.find(degenerate + ": the joint Mahalanobis distance"), std::string::npos) << out;
   EXPECT_EQ(run("--problem " + kData + "/clear.json", &out, true), 2);
   EXPECT_NE(out.find("usage"), std::string::npos) << out;
 }

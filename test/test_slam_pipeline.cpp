@@ -302,6 +302,32 @@ TEST(SlamPipeline, PoseDeltaRejectsNonFinitePoses) {
   EXPECT_TRUE(stateFinite(p));
 }
 
+TEST(SlamPipeline, ImplausibleTwistIsRejectedApartFromNonFinite) {
+  SlamPipeline p(PipelineConfig(), std::make_shared<ScriptedAssociator>());
+  EXPECT_TRUE(p.addOdometry(odom(1.0, 1.0, 0.0)));
+  EXPECT_FALSE(p.addOdometry(odom(1.1, 1e300, 0.0)));  // finite, impossible
+  EXPECT_FALSE(p.addOdometry(odom(1.2, 1.0, -50.0)));  // beyond max_yaw_rate 10 rad/s
+  EXPECT_EQ(p.counters().implausible_odometry, 2u);
+  EXPECT_EQ(p.counters().rejected_odometry, 0u);
+  EXPECT_TRUE(p.addOdometry(odom(2.0, 1.0, 0.0)));  // the pose still moves
+  EXPECT_NEAR(p.pose().x(), 1.0, 1e-12);
+  EXPECT_TRUE(stateFinite(p));
+}
+
+TEST(SlamPipeline, PoseDeltaRejectsOdometryWithoutOrientation) {
+  PipelineConfig c;
+  c.odometry_mode = "pose_delta";
+  SlamPipeline p(c, std::make_shared<ScriptedAssociator>());
+  EXPECT_TRUE(p.addOdometry(odom(0.0, 0.0, 0.0)));
+  OdometryInput zero = odom(0.1, 0.0, 0.0, Eigen::Vector3d(1, 0, 0));
+  zero.orientation_valid = false;  // what toOdometryInput makes of an all-zero quaternion
+  EXPECT_FALSE(p.addOdometry(zero));
+  EXPECT_EQ(p.counters().invalid_orientations, 1u);
+  // Twist mode does not use the pose: accepted there.
+  SlamPipeline q(PipelineConfig(), std::make_shared<ScriptedAssociator>());
+  EXPECT_TRUE(q.addOdometry(zero));
+}
+
 TEST(SlamPipeline, LateScanIsProcessedAtTheCurrentTime) {
   SlamPipeline p(PipelineConfig(), std::make_shared<ScriptedAssociator>());
   p.addOdometry(odom(5.0, 1.0, 0.0));
@@ -367,6 +393,53 @@ TEST(SlamPipeline, NaNRangesAndEmptyScansAreCountedAndHarmless) {
   EXPECT_EQ(p.counters().scans, 4u);
   EXPECT_EQ(rep.scan, 3u);
   EXPECT_DOUBLE_EQ(p.time(), 0.4);  // still predicted
+  EXPECT_TRUE(stateFinite(p));
+}
+
+TEST(SlamPipeline, DuplicateScansAreDroppedAndCounted) {
+  auto a = std::make_shared<ScriptedAssociator>();
+  SlamPipeline p(PipelineConfig(), a);
+  p.addOdometry(odom(0.0, 1.0, 0.0));
+  const std::vector<float> r = scanWithOneTree();
+  EXPECT_FALSE(p.processScan(0.1, r, -M_PI / 2, M_PI / 360).duplicate);
+  const ScanReport again = p.processScan(0.1, r, -M_PI / 2, M_PI / 360);
+  EXPECT_TRUE(again.duplicate);
+  EXPECT_EQ(p.counters().duplicate_scans, 1u);
+  EXPECT_EQ(p.counters().scans, 1u);
+  std::vector<float> other = r;
+  other[0] = 5.0f;  // same stamp, other content: a scan of its own
+  EXPECT_FALSE(p.processScan(0.1, other, -M_PI / 2, M_PI / 360).duplicate);
+  EXPECT_FALSE(p.processScan(0.2, r, -M_PI / 2, M_PI / 360).duplicate);
+  EXPECT_EQ(p.counters().scans, 3u);
+}
+
+TEST(SlamPipeline, InconsistentScanGeometryIsPredictionOnly) {
+  auto a = std::make_shared<ScriptedAssociator>([](const AssociationContext& ctx) {
+    AssociationResult r;
+    r.resize(ctx.numObservations());
+    for (auto& d : r.decision) d = Decision::kNew;
+    return r;
+  });
+  SlamPipeline p(PipelineConfig(), a);
+  p.addOdometry(odom(0.0, 1.0, 0.0));
+  const std::vector<float> r = scanWithOneTree();
+  // Consistent (361 beams, -90..90 deg): used.
+  ScanReport rep = p.processScan(0.1, r, -M_PI / 2, M_PI / 360, M_PI / 2);
+  EXPECT_EQ(rep.geometry_error, nullptr);
+  EXPECT_EQ(p.ekf().numLandmarks(), 1u);
+  std::vector<float> longer(3 * r.size(), 80.0f);  // 3x the beams for the same angles
+  rep = p.processScan(0.2, longer, -M_PI / 2, M_PI / 360, M_PI / 2);
+  ASSERT_NE(rep.geometry_error, nullptr);
+  EXPECT_NE(std::string(rep.geometry_error).find("number of ranges"), std::string::npos);
+  rep = p.processScan(0.3, r, -M_PI / 2, -M_PI / 360, M_PI / 2);  // sign contradicts
+  ASSERT_NE(rep.geometry_error, nullptr);
+  rep = p.processScan(0.4, r, -M_PI / 2, 1.0, M_PI / 2);  // absurd increment
+  ASSERT_NE(rep.geometry_error, nullptr);
+  rep = p.processScan(0.5, r, -M_PI / 2, M_PI / 360, NAN);
+  ASSERT_NE(rep.geometry_error, nullptr);
+  EXPECT_EQ(p.counters().inconsistent_scans, 4u);
+  EXPECT_EQ(p.ekf().numLandmarks(), 1u);
+  EXPECT_DOUBLE_EQ(p.time(), 0.5);  // still predicted
   EXPECT_TRUE(stateFinite(p));
 }
 

@@ -88,6 +88,8 @@ void PipelineConfig::validate() const {
   }
   positive(index_cell_size, "index_cell_size");
   positive(max_odometry_gap, "max_odometry_gap");
+  positive(max_speed, "max_speed");
+  positive(max_yaw_rate, "max_yaw_rate");
   nonNegative(max_latency, "max_latency");
   positive(time_jump_threshold, "time_jump_threshold");
 
@@ -185,6 +187,8 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
                       r.nonNegative("initial_pose_sigma_yaw", c.initial_pose_sigma.z()));
   c.index_cell_size = r.positive("index_cell_size", c.index_cell_size);
   c.max_odometry_gap = r.positive("max_odometry_gap", c.max_odometry_gap);
+  c.max_speed = r.positive("max_speed", c.max_speed);
+  c.max_yaw_rate = r.positive("max_yaw_rate", c.max_yaw_rate);
   c.max_latency = r.nonNegative("max_latency", c.max_latency);
   c.time_jump_threshold = r.positive("time_jump_threshold", c.time_jump_threshold);
 

@@ -18,6 +18,7 @@
 
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/scan_geometry.h"
 
 namespace ekf_slam {
 
@@ -71,6 +72,8 @@ void SlamPipeline::reset() {
   time_ = std::numeric_limits<double>::quiet_NaN();
   have_odometry_ = false;
   last_odom_ = OdometryInput();
+  last_scan_stamp_ = std::numeric_limits<double>::quiet_NaN();
+  last_scan_ranges_.clear();
   odom_pose_at_time_.setZero();
   pending_steps_ = 0;
   lost_ = false;
@@ -387,6 +390,16 @@ bool SlamPipeline::addOdometry(const OdometryInput& odom) {
     ++counters_.rejected_odometry;
     return false;
   }
+  // Finite but physically impossible (1e300 m/s would move the pose to infinity): not driven.
+  if (std::abs(odom.twist(0)) > config_.max_speed ||
+      std::abs(odom.twist(1)) > config_.max_yaw_rate) {
+    ++counters_.implausible_odometry;
+    return false;
+  }
+  if (pose_delta && !odom.orientation_valid) {
+    ++counters_.invalid_orientations;
+    return false;
+  }
   if (std::isfinite(time_) && odom.stamp < time_) {
     ++counters_.late_odometry;
     return false;
@@ -428,9 +441,33 @@ double SlamPipeline::predictTo(double stamp, ScanReport* report) {
 // --- scans ---------------------------------------------------------------------------------------
 
 ScanReport SlamPipeline::processScan(double stamp, const std::vector<float>& ranges,
-                                     double angle_min, double angle_increment) {
+                                     double angle_min, double angle_increment,
+                                     std::optional<double> angle_max) {
   ScanReport report;
+  // A repeat of the previous scan (a duplicated message, a driver publishing twice) would be
+  // used twice, counting every tree as two sightings.
+  if (stamp == last_scan_stamp_ && angle_min == last_scan_angle_min_ &&
+      angle_increment == last_scan_angle_increment_ && ranges == last_scan_ranges_) {
+    ++counters_.duplicate_scans;
+    report.duplicate = true;
+    report.stamp = stamp;
+    return report;
+  }
+  last_scan_stamp_ = stamp;
+  last_scan_angle_min_ = angle_min;
+  last_scan_angle_increment_ = angle_increment;
+  last_scan_ranges_ = ranges;
   report.stamp = predictTo(stamp, &report);
+  if (angle_max)
+    report.geometry_error =
+        scanGeometryError(ranges.size(), angle_min, *angle_max, angle_increment);
+  if (report.geometry_error) {
+    // Trees would be placed at wrong bearings: the scan is only a time step.
+    ++counters_.inconsistent_scans;
+    ++counters_.scans;
+    report.scan = scans_++;
+    return report;
+  }
 
   const auto t0 = std::chrono::steady_clock::now();
   int invalid = 0;

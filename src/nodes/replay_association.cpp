@@ -3,10 +3,12 @@
 // Runs one associator, loaded through pluginlib exactly as the SLAM node loads it, on a saved
 // association problem (docs/replay_association.md) and prints one line per observation,
 // "obs_index landmark_index" (-1 when unpaired), then "joint_mahalanobis D2".
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <exception>
 #include <iostream>
+#include <stdexcept>
 #include <string>
 
 #include "ekf_slam/ros/plugin_loader.h"
@@ -60,6 +62,12 @@ int main(int argc, char** argv) {
     ekf_slam::AssociatorLoader loader;
     const auto assoc = loader.create(lookup, params);
     const auto replay = ekf_slam::replayAssociation(problem, *assoc);
+    // Only finite results are printed: an infinite distance means the problem is degenerate
+    // (a singular innovation covariance), which a caller must not take for an answer.
+    if (!std::isfinite(replay.joint_mahalanobis)) {
+      throw std::runtime_error(problem_file + ": the joint Mahalanobis distance of " + associator +
+                               "'s pairings is not finite (singular innovation covariance?)");
+    }
     for (std::size_t i = 0; i < replay.landmark.size(); ++i) {
       std::printf("%zu %d\n", i, replay.landmark[i]);
     }

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include <tf2/exceptions.h>
+
 namespace ekf_slam {
 
 namespace {
@@ -54,11 +56,26 @@ boost::array<double, 36> toCovarianceMsg(const Eigen::Matrix3d& P, double other_
   return c;
 }
 
+Eigen::Vector3d sensorOffset(const tf2::BufferCore& tf, const std::string& base_frame,
+                             const std::string& frame) {
+  if (frame == base_frame) return Eigen::Vector3d::Zero();
+  // Without a frame the data could be anywhere on the vehicle: not taken for base_frame.
+  if (frame.empty()) throw tf2::TransformException("the message has no header.frame_id");
+  const Eigen::Vector3d offset =
+      toPose2(tf.lookupTransform(base_frame, frame, ros::Time(0)).transform);
+  if (!offset.allFinite()) throw tf2::TransformException("non-finite transform");
+  return offset;
+}
+
 OdometryInput toOdometryInput(const nav_msgs::Odometry& msg) {
   OdometryInput odom;
   odom.stamp = msg.header.stamp.toSec();
   odom.twist = Eigen::Vector2d(msg.twist.twist.linear.x, msg.twist.twist.angular.z);
   odom.pose = toPose2(msg.pose.pose);
+  // An all-zero quaternion (an unset field) has no yaw; atan2(0, 0) = 0 would pass for one.
+  const auto& q = msg.pose.pose.orientation;
+  const double norm2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+  odom.orientation_valid = std::isfinite(norm2) && norm2 > 1e-12;
   return odom;
 }
 

@@ -240,6 +240,8 @@ void EkfSlamNode::readParameters() {
 std::uint64_t EkfSlamNode::SeqGaps::check(std::uint32_t seq) {
   // seq 0 is what publishers that do not count leave; a huge step is a restarted publisher.
   std::uint64_t gap = 0;
+  if (!seen && seq < 1000000u) before_first = seq;
+  seen = true;
   if (have && seq > last + 1 && seq - last < 1000000u) gap = seq - last - 1;
   missing += gap;
   have = seq != 0;
@@ -295,10 +297,18 @@ void EkfSlamNode::handle(const Inbound& in) {
 void EkfSlamNode::handleOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
   ++odometry_received_;
   ++odom_rate_.count;
+  const bool first = !odom_gaps_.seen;
   if (const std::uint64_t gap = odom_gaps_.check(msg->header.seq)) {
     ROS_WARN_THROTTLE(5.0, "ekf_slam: %lu odometry messages missing (header.seq gaps; %lu so far)",
                       static_cast<unsigned long>(gap),
                       static_cast<unsigned long>(odom_gaps_.missing));
+  }
+  if (first && odom_gaps_.before_first > 0) {
+    ROS_WARN(
+        "ekf_slam: the first odometry message received has header.seq %lu: that many were "
+        "published before (node started late, or the publisher did not wait for the "
+        "subscription, e.g. rosbag play without -d)",
+        static_cast<unsigned long>(odom_gaps_.before_first));
   }
   // The twist is taken as base_frame's motion and the pose as odom_frame -> base_frame: say so
   // when the message names other frames (empty names are accepted as "unspecified").
@@ -369,14 +379,11 @@ bool EkfSlamNode::acceptSensor(const std_msgs::Header& header, const char* topic
   }
   if (sensor_offsets_.count(header.frame_id)) return true;
   // First message of this frame: the sensor's mounting on base_link (assumed rigid).
-  if (header.frame_id == config_.base_frame) {
-    sensor_offsets_[header.frame_id] = Eigen::Vector3d::Zero();
-    return true;
-  }
   // The first message of a frame often races the latched /tf_static (both are published at
   // start): give the listener's own thread a moment, once per frame, on the wall clock (sim
   // time may be paused).
-  if (tf_waited_.insert(header.frame_id).second) {
+  if (!header.frame_id.empty() && header.frame_id != config_.base_frame &&
+      tf_waited_.insert(header.frame_id).second) {
     const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(kFirstTfWait);
     while (ros::WallTime::now() < deadline &&
            !tf_buffer_.canTransform(config_.base_frame, header.frame_id, ros::Time(0))) {
@@ -384,10 +391,8 @@ bool EkfSlamNode::acceptSensor(const std_msgs::Header& header, const char* topic
     }
   }
   try {
-    const geometry_msgs::TransformStamped t =
-        tf_buffer_.lookupTransform(config_.base_frame, header.frame_id, ros::Time(0));
-    const Eigen::Vector3d offset = toPose2(t.transform);
-    if (!offset.allFinite()) throw tf2::TransformException("non-finite transform");
+    // The offline runner applies the same rule (conversions.h).
+    const Eigen::Vector3d offset = sensorOffset(tf_buffer_, config_.base_frame, header.frame_id);
     sensor_offsets_[header.frame_id] = offset;
     ROS_INFO("ekf_slam: sensor frame %s at (%.3f, %.3f, %.3f rad) on %s", header.frame_id.c_str(),
              offset.x(), offset.y(), offset.z(), config_.base_frame.c_str());
@@ -447,6 +452,8 @@ void EkfSlamNode::drain() {
         if (pipeline_->addOdometry(item.odometry)) {
           have_odometry_ = true;
           last_odometry_ = item.odometry;
+        } else {
+          warnRejectedOdometry();
         }
         break;
       case SequencerCore::Kind::kScan:
@@ -459,6 +466,28 @@ void EkfSlamNode::drain() {
         break;
     }
   }
+}
+
+void EkfSlamNode::warnRejectedOdometry() {
+  const PipelineCounters& c = pipeline_->counters();
+  if (c.implausible_odometry > warned_.implausible_odometry) {
+    ROS_WARN_THROTTLE(5.0,
+                      "ekf_slam: odometry twist beyond max_speed %.1f m/s or max_yaw_rate %.1f "
+                      "rad/s rejected (%lu so far)",
+                      pipeline_config_.max_speed, pipeline_config_.max_yaw_rate,
+                      static_cast<unsigned long>(c.implausible_odometry));
+  }
+  if (c.invalid_orientations > warned_.invalid_orientations) {
+    ROS_WARN_THROTTLE(5.0,
+                      "ekf_slam: odometry without orientation (all-zero quaternion) rejected in "
+                      "pose_delta mode (%lu so far)",
+                      static_cast<unsigned long>(c.invalid_orientations));
+  }
+  if (c.rejected_odometry > warned_.rejected_odometry) {
+    ROS_WARN_THROTTLE(5.0, "ekf_slam: non-finite odometry rejected (%lu so far)",
+                      static_cast<unsigned long>(c.rejected_odometry));
+  }
+  warned_ = c;
 }
 
 void EkfSlamNode::process(const SensorInput& input, double stamp) {
@@ -474,7 +503,7 @@ void EkfSlamNode::process(const SensorInput& input, double stamp) {
   try {
     if (input.scan) {
       const sensor_msgs::LaserScan& s = *input.scan;
-      report = pipeline_->processScan(stamp, s.ranges, s.angle_min, s.angle_increment);
+      report = pipeline_->processScan(stamp, s.ranges, s.angle_min, s.angle_increment, s.angle_max);
     } else {
       report = pipeline_->processObservations(stamp, toObservations(*input.observations));
     }
@@ -483,8 +512,18 @@ void EkfSlamNode::process(const SensorInput& input, double stamp) {
     ROS_ERROR_THROTTLE(5.0, "ekf_slam: input at %.3f failed: %s", stamp, e.what());
     return;
   }
-  ++scans_processed_;
   const PipelineCounters& c = pipeline_->counters();
+  if (report.duplicate) {
+    ROS_WARN_THROTTLE(5.0, "ekf_slam: scan at %.3f repeats the previous one: dropped (%lu so far)",
+                      stamp, static_cast<unsigned long>(c.duplicate_scans));
+    return;
+  }
+  ++scans_processed_;
+  if (report.geometry_error) {
+    ROS_WARN_THROTTLE(
+        5.0, "ekf_slam: scan at %.3f rejected: %s; used for prediction only (%lu so far)", stamp,
+        report.geometry_error, static_cast<unsigned long>(c.inconsistent_scans));
+  }
   if (c.invalid_ranges > invalid_before) {
     ROS_WARN_THROTTLE(10.0, "ekf_slam: scans contain NaN or negative ranges (%lu beams so far)",
                       static_cast<unsigned long>(c.invalid_ranges));
@@ -700,29 +739,38 @@ void EkfSlamNode::onDiagnosticsTimer(const ros::WallTimerEvent&) {
   in.hardware_id = hw;
   const std::uint64_t lost =
       overflow + odom_gaps_.missing + scan_gaps_.missing + observation_gaps_.missing;
-  const std::uint64_t skipped =
-      skipped_no_tf_ + skipped_bad_stamp_ + q.invalid_stamps + q.dropped_out_of_range;
+  const std::uint64_t skipped = skipped_no_tf_ + skipped_bad_stamp_ + q.invalid_stamps +
+                                q.dropped_out_of_range + c.implausible_odometry +
+                                c.invalid_orientations + c.inconsistent_scans + c.duplicate_scans;
   in.level = diagnostic_msgs::DiagnosticStatus::OK;
   in.message = "no input lost";
   if (lost > 0 || skipped > 0) {
     in.level = diagnostic_msgs::DiagnosticStatus::WARN;
     in.message = std::to_string(lost) + " messages lost, " + std::to_string(skipped) + " skipped";
   }
-  in.values = {keyValue("odometry rate [Hz]", rate(&odom_rate_)),
-               keyValue("scan rate [Hz]", rate(&scan_rate_)),
-               keyValue("odometry received", odometry_received_),
-               keyValue("scans received", scans_received_),
-               keyValue("odometry missing (seq gaps)", odom_gaps_.missing),
-               keyValue("scans missing (seq gaps)", scan_gaps_.missing),
-               keyValue("observations missing (seq gaps)", observation_gaps_.missing),
-               keyValue("inbox overflow drops", overflow),
-               keyValue("skipped without tf", skipped_no_tf_),
-               keyValue("skipped zero stamps", skipped_bad_stamp_),
-               keyValue("dropped non-finite stamps", q.invalid_stamps),
-               keyValue("out-of-range stamps dropped (one stream jumped)", q.dropped_out_of_range),
-               keyValue("late odometry (skipped)", c.late_odometry),
-               keyValue("late scans (used at filter time)", c.late_scans),
-               keyValue("odometry frame mismatches", odom_frame_mismatches_)};
+  in.values = {
+      keyValue("odometry rate [Hz]", rate(&odom_rate_)),
+      keyValue("scan rate [Hz]", rate(&scan_rate_)),
+      keyValue("odometry received", odometry_received_),
+      keyValue("scans received", scans_received_),
+      keyValue("odometry missing (seq gaps)", odom_gaps_.missing),
+      keyValue("scans missing (seq gaps)", scan_gaps_.missing),
+      keyValue("observations missing (seq gaps)", observation_gaps_.missing),
+      keyValue("odometry before the first received (seq)", odom_gaps_.before_first),
+      keyValue("scans before the first received (seq)",
+               scan_gaps_.before_first + observation_gaps_.before_first),
+      keyValue("inbox overflow drops", overflow),
+      keyValue("skipped without tf", skipped_no_tf_),
+      keyValue("skipped zero stamps", skipped_bad_stamp_),
+      keyValue("dropped non-finite stamps", q.invalid_stamps),
+      keyValue("out-of-range stamps dropped (one stream jumped)", q.dropped_out_of_range),
+      keyValue("late odometry (skipped)", c.late_odometry),
+      keyValue("late scans (used at filter time)", c.late_scans),
+      keyValue("odometry frame mismatches", odom_frame_mismatches_),
+      keyValue("implausible odometry (beyond max_speed / max_yaw_rate)", c.implausible_odometry),
+      keyValue("odometry without orientation (pose_delta)", c.invalid_orientations),
+      keyValue("inconsistent scans (angles vs beams)", c.inconsistent_scans),
+      keyValue("duplicate scans dropped", c.duplicate_scans)};
   array.status.push_back(in);
 
   diagnostic_msgs::DiagnosticStatus proc;
@@ -871,14 +919,19 @@ std::string EkfSlamNode::summary() const {
   }
   out << "scans received " << scans_received_ << ", processed " << scans_processed_
       << ", missing upstream (seq gaps) " << scan_gaps_.missing + observation_gaps_.missing
+      << ", before the first (seq) " << scan_gaps_.before_first + observation_gaps_.before_first
       << ", skipped without tf " << skipped_no_tf_ << ", zero stamps " << skipped_bad_stamp_
       << "; odometry received " << odometry_received_ << ", missing (seq gaps) "
-      << odom_gaps_.missing << ", used " << c.odometry << "; inbox overflow " << overflow
-      << "; late odometry " << s.late_odometry << ", late scans " << s.late_scans << ", time jumps "
-      << s.time_jumps << ", out-of-range stamps dropped " << s.dropped_out_of_range
-      << ", released by latency " << s.released_by_latency << ", input-timeout flushes " << flushes_
-      << "; empty scans " << c.empty_scans << ", rejected updates " << c.rejected_updates
-      << "; landmarks " << pipeline_->ekf().numLandmarks();
+      << odom_gaps_.missing << ", before the first (seq) " << odom_gaps_.before_first << ", used "
+      << c.odometry << "; inbox overflow " << overflow << "; late odometry " << s.late_odometry
+      << ", late scans " << s.late_scans << ", time jumps " << s.time_jumps
+      << ", out-of-range stamps dropped " << s.dropped_out_of_range << ", released by latency "
+      << s.released_by_latency << ", input-timeout flushes " << flushes_ << "; empty scans "
+      << c.empty_scans << ", inconsistent scans " << c.inconsistent_scans << ", duplicate scans "
+      << c.duplicate_scans << ", rejected odometry " << c.rejected_odometry << " (non-finite), "
+      << c.implausible_odometry << " (implausible), " << c.invalid_orientations
+      << " (no orientation), rejected updates " << c.rejected_updates << "; landmarks "
+      << pipeline_->ekf().numLandmarks();
   return out.str();
 }
 

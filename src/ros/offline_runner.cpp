@@ -40,6 +40,7 @@
 #include "ekf_slam/core/simulated_run.h"
 #include "ekf_slam/core/slam_pipeline.h"
 #include "ekf_slam/core/trajectory_metrics.h"
+#include "ekf_slam/ros/checked_bag_reader.h"
 #include "ekf_slam/ros/conversions.h"
 #include "ekf_slam/ros/ekf_slam_node.h"
 #include "ekf_slam/ros/plugin_loader.h"
@@ -103,6 +104,7 @@ struct ScanInput {
   std::vector<float> ranges;
   double angle_min;
   double angle_increment;
+  double angle_max;
   std::string frame_id;
 };
 struct ObservationsInput {
@@ -138,70 +140,102 @@ struct BagContents {
   std::uint64_t observations_without_truth = 0;  // in a bag that has truth ids
 };
 
+// A message on a known topic with another type: the user's mistake, not corruption.
+struct BadTopicType : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 BagContents readBag(const OfflineOptions& o) {
+  // rosbag trusts the file's lengths: they are checked first.
+  if (std::ifstream(o.bag_path).good()) {
+    try {
+      checkBagStructure(o.bag_path);
+    } catch (const CorruptMessageError& e) {
+      throw std::runtime_error("corrupted bag " + o.bag_path + ": " + e.what());
+    }
+  }
   rosbag::Bag bag;
   try {
     bag.open(o.bag_path, rosbag::bagmode::Read);
-  } catch (const rosbag::BagException& e) {
+  } catch (const std::exception& e) {  // rosbag's, or a corrupted header's
     throw std::runtime_error("cannot open bag " + o.bag_path + ": " + e.what());
   }
   BagContents c;
-  rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{
-                             o.scan_topic, o.odom_topic, o.observations_topic, o.gps_topic,
-                             o.tf_static_topic, o.ground_truth_topic, o.true_map_topic}));
-  for (const rosbag::MessageInstance& m : view) {
-    const std::string& topic = m.getTopic();
-    if (topic == o.odom_topic) {
-      if (const auto msg = m.instantiate<nav_msgs::Odometry>()) {
-        c.arrivals.push_back({Arrival::kOdometry, static_cast<std::uint32_t>(c.odometry.size())});
-        c.odometry.push_back(toOdometryInput(*msg));
-        continue;
-      }
-    } else if (topic == o.scan_topic) {
-      if (const auto msg = m.instantiate<sensor_msgs::LaserScan>()) {
-        c.arrivals.push_back({Arrival::kScan, static_cast<std::uint32_t>(c.scans.size())});
-        c.scans.push_back({msg->header.stamp.toSec(), msg->ranges, msg->angle_min,
-                           msg->angle_increment, msg->header.frame_id});
-        continue;
-      }
-    } else if (topic == o.observations_topic) {
-      if (const auto msg = m.instantiate<LandmarkObservationArray>()) {
-        ObservationsInput in{msg->header.stamp.toSec(), {}, {}, msg->header.frame_id};
-        in.observations = toObservations(*msg, &in.truth_ids);
-        for (const auto id : in.truth_ids) {
-          c.has_truth_ids |= id != kNoTruthId;
-          c.observations_without_truth += id == kNoTruthId;
+  // Every message is read through length checks: a corrupted bag stops the run with where it
+  // was, never with an unbounded allocation (checked_bag_reader.h).
+  CheckedBagReader reader;
+  std::uint64_t read = 0;
+  std::string topic = "(index)";
+  double last_stamp = std::numeric_limits<double>::quiet_NaN();
+  try {
+    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{
+                               o.scan_topic, o.odom_topic, o.observations_topic, o.gps_topic,
+                               o.tf_static_topic, o.ground_truth_topic, o.true_map_topic}));
+    for (const rosbag::MessageInstance& m : view) {
+      topic = m.getTopic();
+      last_stamp = m.getTime().toSec();
+      ++read;
+      if (topic == o.odom_topic) {
+        if (const auto msg = reader.instantiate<nav_msgs::Odometry>(m)) {
+          c.arrivals.push_back({Arrival::kOdometry, static_cast<std::uint32_t>(c.odometry.size())});
+          c.odometry.push_back(toOdometryInput(*msg));
+          continue;
         }
-        c.arrivals.push_back(
-            {Arrival::kObservations, static_cast<std::uint32_t>(c.observation_sets.size())});
-        c.observation_sets.push_back(std::move(in));
-        continue;
+      } else if (topic == o.scan_topic) {
+        if (const auto msg = reader.instantiate<sensor_msgs::LaserScan>(m)) {
+          c.arrivals.push_back({Arrival::kScan, static_cast<std::uint32_t>(c.scans.size())});
+          c.scans.push_back({msg->header.stamp.toSec(), msg->ranges, msg->angle_min,
+                             msg->angle_increment, msg->angle_max, msg->header.frame_id});
+          continue;
+        }
+      } else if (topic == o.observations_topic) {
+        if (const auto msg = reader.instantiate<LandmarkObservationArray>(m)) {
+          ObservationsInput in{msg->header.stamp.toSec(), {}, {}, msg->header.frame_id};
+          in.observations = toObservations(*msg, &in.truth_ids);
+          for (const auto id : in.truth_ids) {
+            c.has_truth_ids |= id != kNoTruthId;
+            c.observations_without_truth += id == kNoTruthId;
+          }
+          c.arrivals.push_back(
+              {Arrival::kObservations, static_cast<std::uint32_t>(c.observation_sets.size())});
+          c.observation_sets.push_back(std::move(in));
+          continue;
+        }
+      } else if (topic == o.gps_topic) {
+        if (const auto msg = reader.instantiate<geometry_msgs::PointStamped>(m)) {
+          c.gps.push_back({msg->header.stamp.toSec(), Eigen::Vector2d(msg->point.x, msg->point.y)});
+          continue;
+        }
+      } else if (topic == o.ground_truth_topic) {
+        if (const auto msg = reader.instantiate<nav_msgs::Odometry>(m)) {
+          c.ground_truth.emplace_back(msg->header.stamp.toSec(), toOdometryInput(*msg).pose);
+          continue;
+        }
+      } else if (topic == o.true_map_topic) {
+        if (const auto msg = reader.instantiate<LandmarkArray>(m)) {
+          c.true_map.clear();  // latched: the last one holds
+          for (const auto& l : msg->landmarks)
+            c.true_map.emplace_back(l.id, Eigen::Vector2d(l.x, l.y));
+          continue;
+        }
+      } else if (topic == o.tf_static_topic) {
+        if (const auto msg = reader.instantiate<tf2_msgs::TFMessage>(m)) {
+          c.tf_static.insert(c.tf_static.end(), msg->transforms.begin(), msg->transforms.end());
+          continue;
+        }
       }
-    } else if (topic == o.gps_topic) {
-      if (const auto msg = m.instantiate<geometry_msgs::PointStamped>()) {
-        c.gps.push_back({msg->header.stamp.toSec(), Eigen::Vector2d(msg->point.x, msg->point.y)});
-        continue;
-      }
-    } else if (topic == o.ground_truth_topic) {
-      if (const auto msg = m.instantiate<nav_msgs::Odometry>()) {
-        c.ground_truth.emplace_back(msg->header.stamp.toSec(), toOdometryInput(*msg).pose);
-        continue;
-      }
-    } else if (topic == o.true_map_topic) {
-      if (const auto msg = m.instantiate<LandmarkArray>()) {
-        c.true_map.clear();  // latched: the last one holds
-        for (const auto& l : msg->landmarks)
-          c.true_map.emplace_back(l.id, Eigen::Vector2d(l.x, l.y));
-        continue;
-      }
-    } else if (topic == o.tf_static_topic) {
-      if (const auto msg = m.instantiate<tf2_msgs::TFMessage>()) {
-        c.tf_static.insert(c.tf_static.end(), msg->transforms.begin(), msg->transforms.end());
-        continue;
-      }
+      throw BadTopicType(o.bag_path + ": topic " + topic + " has type " + m.getDataType() +
+                         ", not the expected one");
     }
-    throw std::runtime_error(o.bag_path + ": topic " + topic + " has type " + m.getDataType() +
-                             ", not the expected one");
+  } catch (const BadTopicType&) {
+    throw;
+  } catch (const std::exception& e) {  // CorruptMessageError, rosbag and ros exceptions
+    std::ostringstream what;
+    what << "corrupted bag " << o.bag_path << ": message " << read << " (topic " << topic
+         << ", bag time " << std::fixed << std::setprecision(3) << last_stamp
+         << " s) cannot be read: " << e.what() << "; " << c.scans.size() << " scans and "
+         << c.odometry.size() << " odometry messages were read before it";
+    throw std::runtime_error(what.str());
   }
   if (c.scans.empty() && c.observation_sets.empty()) {
     throw std::runtime_error(o.bag_path + ": no messages on " + o.scan_topic + " or " +
@@ -214,20 +248,46 @@ BagContents readBag(const OfflineOptions& o) {
   return c;
 }
 
-// Pose (x, y, yaw) of `frame` on the base frame from the bag's static transforms (chains too).
-Eigen::Vector3d sensorOffset(const BagContents& c, const OfflineOptions& o,
-                             const std::string& frame) {
-  if (frame.empty() || frame == o.base_frame) return Eigen::Vector3d::Zero();
-  tf2::BufferCore buffer;
-  for (const auto& t : c.tf_static) buffer.setTransform(t, "bag", /*is_static=*/true);
-  try {
-    return toPose2(buffer.lookupTransform(o.base_frame, frame, ros::Time(0)).transform);
-  } catch (const tf2::TransformException& e) {
-    throw std::runtime_error(o.bag_path + ": no static transform " + o.base_frame + " -> " + frame +
-                             " on " + o.tf_static_topic + " (" + e.what() +
-                             "); the sensor pose on the vehicle is needed");
+// Sensor poses on the base frame per frame id, from the bag's static transforms (chains too),
+// looked up once per frame with the node's rule (conversions.h, sensorOffset): a message whose
+// frame has no transform (or no name) is skipped, counted and warned about, as the node does.
+class SensorFrames {
+ public:
+  SensorFrames(const BagContents& c, const OfflineOptions& o, std::ostream& log)
+      : o_(o), log_(log) {
+    for (const auto& t : c.tf_static) buffer_.setTransform(t, "bag", /*is_static=*/true);
   }
-}
+  /// The offset of `frame`, or null (the message is skipped).
+  const Eigen::Vector3d* offset(const std::string& frame) {
+    auto it = offsets_.find(frame);
+    if (it == offsets_.end()) {
+      std::optional<Eigen::Vector3d> offset;
+      try {
+        offset = sensorOffset(buffer_, o_.base_frame, frame);
+      } catch (const tf2::TransformException& e) {
+        const std::string why = "no static transform " + o_.base_frame + " -> " +
+                                (frame.empty() ? "(empty frame_id)" : frame) + " on " +
+                                o_.tf_static_topic + " (" + e.what() + ")";
+        log_ << "warning: " << why << ": its messages are skipped\n";
+        missing_ += (missing_.empty() ? "" : "; ") + why;
+      }
+      it = offsets_.emplace(frame, offset).first;
+    }
+    if (!it->second) ++skipped_;
+    return it->second ? &*it->second : nullptr;
+  }
+  std::uint64_t skipped() const { return skipped_; }
+  /// Every missing transform, for the error when no message could be used.
+  const std::string& missing() const { return missing_; }
+
+ private:
+  const OfflineOptions& o_;
+  std::ostream& log_;
+  tf2::BufferCore buffer_;
+  std::unordered_map<std::string, std::optional<Eigen::Vector3d>> offsets_;
+  std::uint64_t skipped_ = 0;
+  std::string missing_;
+};
 
 // True pose at `stamp` from the ground-truth track (sorted by stamp): exact at a sample,
 // interpolated between two, none outside the track.
@@ -389,10 +449,9 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   BagContents bag = readBag(o);
   const double bag_read_s = secondsSince(t_read);
 
-  const std::string sensor_frame =
-      !bag.scans.empty() ? bag.scans.front().frame_id : bag.observation_sets.front().frame_id;
-  const Eigen::Vector3d offset = sensorOffset(bag, o, sensor_frame);
-  pipeline.setSensorOffset(offset);
+  SensorFrames frames(bag, o, log);
+  std::optional<Eigen::Vector3d> offset;  // of the first sensor message used (metrics.json)
+  const std::string* current_frame = nullptr;
 
   std::vector<double> assoc_us, update_us;
   const std::size_t num_scans = bag.scans.size() + bag.observation_sets.size();
@@ -535,13 +594,25 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
             pipeline.injectPoseJump(k.jump);
             log << "kidnap before scan " << k.scan << ": pose jump " << k.jump.transpose() << "\n";
           }
+          const std::string& frame = item.scan.observations
+                                         ? bag.observation_sets[item.scan.index].frame_id
+                                         : bag.scans[item.scan.index].frame_id;
+          if (current_frame == nullptr || *current_frame != frame) {
+            pipeline.setSensorOffset(*frames.offset(frame));  // known: checked on arrival
+            current_frame = &frame;
+          }
           if (item.scan.observations) {
             const ObservationsInput& s = bag.observation_sets[item.scan.index];
             record(pipeline.processObservations(s.stamp, s.observations), &s);
           } else {
             const ScanInput& s = bag.scans[item.scan.index];
-            record(pipeline.processScan(s.stamp, s.ranges, s.angle_min, s.angle_increment),
-                   nullptr);
+            const ScanReport r = pipeline.processScan(s.stamp, s.ranges, s.angle_min,
+                                                      s.angle_increment, s.angle_max);
+            if (r.geometry_error && pipeline.counters().inconsistent_scans == 1) {
+              log << "warning: scan at " << std::fixed << s.stamp << std::defaultfloat << ": "
+                  << r.geometry_error << ": used for prediction only (and every such scan)\n";
+            }
+            if (!r.duplicate) record(r, nullptr);
           }
           break;
       }
@@ -549,11 +620,28 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   };
 
   Progress progress(o.progress && ::isatty(STDERR_FILENO), bag.arrivals.size());
-  std::uint64_t invalid_stamps = 0;
+  std::uint64_t invalid_stamps = 0, zero_stamps = 0;
   const auto t_loop = Clock::now();
   for (std::size_t a = 0; a < bag.arrivals.size(); ++a) {
     const Arrival& in = bag.arrivals[a];
     SequencerStatus st = SequencerStatus::kQueued;
+    // The node's checks on arrival: zero stamps and sensor frames without a transform skipped.
+    const double stamp = in.kind == Arrival::kOdometry ? bag.odometry[in.index].stamp
+                         : in.kind == Arrival::kScan   ? bag.scans[in.index].stamp
+                                                       : bag.observation_sets[in.index].stamp;
+    if (stamp == 0.0) {
+      if (zero_stamps++ == 0)
+        log << "warning: messages with a zero stamp are skipped (they would reset the map)\n";
+      continue;
+    }
+    if (in.kind != Arrival::kOdometry) {
+      const std::string& frame = in.kind == Arrival::kScan
+                                     ? bag.scans[in.index].frame_id
+                                     : bag.observation_sets[in.index].frame_id;
+      const Eigen::Vector3d* frame_offset = frames.offset(frame);
+      if (frame_offset == nullptr) continue;
+      if (!offset) offset = *frame_offset;
+    }
     switch (in.kind) {
       case Arrival::kOdometry:
         st = sequencer.addOdometry(bag.odometry[in.index]);
@@ -572,6 +660,13 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   sequencer.flush();
   drain();
   progress.update(bag.arrivals.size());
+  if (!offset) {
+    throw std::runtime_error(
+        o.bag_path + ": no scan or observation message could be used: " +
+        (frames.missing().empty()
+             ? std::string("every one has a zero stamp")
+             : frames.missing() + "; the sensor pose on the vehicle is needed"));
+  }
   const double wall_time_s = secondsSince(t_loop);
   progress.finish();
 
@@ -691,7 +786,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   j["association_us_p99"] = number(quantile(assoc_us, 0.99));
   j["update_us_median"] = number(quantile(update_us, 0.5));
   j["update_us_p99"] = number(quantile(update_us, 0.99));
-  j["sensor_offset"] = {offset.x(), offset.y(), offset.z()};
+  j["sensor_offset"] = {offset->x(), offset->y(), offset->z()};
   const Eigen::Vector3d final_pose = ekf.pose();
   j["final_pose"] = {final_pose.x(), final_pose.y(), final_pose.z()};
   {
@@ -740,6 +835,12 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                    {"sequencer_late_scans", sequencer.counters().late_scans},
                    {"released_by_latency", sequencer.counters().released_by_latency},
                    {"invalid_stamps", invalid_stamps},
+                   {"zero_stamps", zero_stamps},
+                   {"skipped_no_tf", frames.skipped()},
+                   {"inconsistent_scans", k.inconsistent_scans},
+                   {"duplicate_scans", k.duplicate_scans},
+                   {"implausible_odometry", k.implausible_odometry},
+                   {"invalid_orientations", k.invalid_orientations},
                    {"held_stamps", sequencer.counters().held},
                    {"dropped_out_of_range", sequencer.counters().dropped_out_of_range},
                    {"time_jumps", time_jumps},
@@ -805,9 +906,17 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   const std::uint64_t out_of_range = sequencer.counters().dropped_out_of_range;
   if (k.rejected_odometry || k.rejected_updates || late || k.odometry_gaps || invalid_stamps ||
       k.invalid_observations || k.invalid_associations || k.failed_initialisations ||
-      out_of_range || k.invalid_ranges || k.empty_scans || time_jumps || k.clamped_corrections) {
+      out_of_range || k.invalid_ranges || k.empty_scans || time_jumps || k.clamped_corrections ||
+      zero_stamps || frames.skipped() || k.inconsistent_scans || k.duplicate_scans ||
+      k.implausible_odometry || k.invalid_orientations) {
     log << "warning: " << k.rejected_odometry << " odometry messages rejected (non-finite), "
-        << invalid_stamps << " messages with invalid stamps dropped, " << out_of_range
+        << k.implausible_odometry << " rejected (twist beyond max_speed / max_yaw_rate), "
+        << k.invalid_orientations << " rejected (no orientation, pose_delta), " << zero_stamps
+        << " messages with a zero stamp skipped, " << frames.skipped()
+        << " sensor messages skipped (no transform for their frame), " << k.inconsistent_scans
+        << " scans with inconsistent angles (prediction only), " << k.duplicate_scans
+        << " duplicate scans dropped, " << invalid_stamps
+        << " messages with invalid stamps dropped, " << out_of_range
         << " messages dropped (stamp out of range of the other input), " << time_jumps
         << " time jumps (resets), " << k.empty_scans << " empty scans, " << k.invalid_ranges
         << " invalid ranges, " << k.late_odometry << " late odometry messages skipped, "

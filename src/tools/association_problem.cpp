@@ -5,6 +5,7 @@
 #include <set>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <nlohmann/json.hpp>
 
@@ -20,10 +21,14 @@ using Json = nlohmann::json;
   throw ProblemError(origin + ": " + what);
 }
 
+// Larger magnitudes overflow the arithmetic of an association (squares of squares).
+constexpr double kMaxMagnitude = 1e100;
+
 double number(const Json& j, const std::string& origin, const std::string& field) {
   if (!j.is_number()) fail(origin, field + " must be a number");
   const double v = j.get<double>();
   if (!std::isfinite(v)) fail(origin, field + " must be finite");
+  if (std::abs(v) > kMaxMagnitude) fail(origin, field + " must lie within +-1e100");
   return v;
 }
 
@@ -113,12 +118,24 @@ void AssociationProblem::validate(const std::string& origin) const {
     fail(origin, "covariance must be " + std::to_string(n) + " x " + std::to_string(n));
   }
   if (!covariance.allFinite()) fail(origin, "covariance must be finite");
-  const double scale = std::max(1.0, covariance.cwiseAbs().maxCoeff());
-  if ((covariance - covariance.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale) {
+  // Entry by entry: a tolerance relative to the largest entry would let a huge variance hide
+  // any asymmetry elsewhere.
+  const Eigen::ArrayXXd a = covariance.array();
+  const Eigen::ArrayXXd tolerance = 1e-9 * a.abs().max(a.transpose().abs()).max(1.0);
+  if (((a - a.transpose()).abs() > tolerance).any()) {
     fail(origin, "covariance must be symmetric");
   }
   if ((covariance.diagonal().array() < 0.0).any()) {
     fail(origin, "covariance must have a non-negative diagonal");
+  }
+  // An indefinite covariance makes innovation covariances indefinite: every associator would
+  // then gate on negative distances and they disagree wildly (issue 15). Rounding is allowed.
+  const Eigen::VectorXd eig =
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(covariance, Eigen::EigenvaluesOnly)
+          .eigenvalues();
+  if (eig.minCoeff() < -1e-9 * std::max(1.0, eig.cwiseAbs().maxCoeff())) {
+    fail(origin, "covariance must be positive semi-definite (smallest eigenvalue " +
+                     std::to_string(eig.minCoeff()) + ")");
   }
   if (!sensor_offset.allFinite()) fail(origin, "sensor_offset must be finite");
   if (!R.allFinite() || std::abs(R(0, 1) - R(1, 0)) > 1e-12 * R.cwiseAbs().maxCoeff() ||
@@ -144,7 +161,7 @@ AssociationProblem parseAssociationProblem(const std::string& json_text,
   Json j;
   try {
     j = Json::parse(json_text);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // syntax, or a number out of range (1e400)
     fail(origin, std::string("not valid JSON: ") + e.what());
   }
   if (!j.is_object()) fail(origin, "expected a JSON object");

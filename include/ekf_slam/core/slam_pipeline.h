@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -71,6 +72,10 @@ struct PipelineConfig {
   double index_cell_size = 10.0;                                 ///< spatial index grid [m]
   /// Odometry gaps longer than this are predicted across but reported (warning) [s].
   double max_odometry_gap = 1.0;
+  /// Odometry whose twist exceeds these is rejected as implausible (counted apart from
+  /// non-finite values): no ground vehicle this pipeline serves drives faster [m/s], [rad/s].
+  double max_speed = 100.0;
+  double max_yaw_rate = 10.0;
 
   /// InputSequencer: items older than (newest stamp - max_latency) are released without waiting
   /// for odometry [s]; a stamp older than the newest by more than time_jump_threshold is a jump
@@ -111,6 +116,9 @@ struct OdometryInput {
   double stamp = 0.0;
   Eigen::Vector2d twist = Eigen::Vector2d::Zero();  ///< (v, w) of base_link
   Eigen::Vector3d pose = Eigen::Vector3d::Zero();   ///< (x, y, yaw) in the odometry frame
+  /// False when the message's orientation carries no rotation (an all-zero or non-finite
+  /// quaternion): its pose cannot drive pose_delta mode.
+  bool orientation_valid = true;
 };
 
 /// Per-landmark bookkeeping next to the EKF.
@@ -123,7 +131,11 @@ struct LandmarkInfo {
 
 /// What happened in one scan.
 struct ScanReport {
-  bool late = false;             ///< stamp was older than the filter: used time()
+  bool late = false;  ///< stamp was older than the filter: used time()
+  /// The scan repeats the previous one (same stamp, angles and ranges): dropped, nothing done.
+  bool duplicate = false;
+  /// Why the scan's geometry was rejected (scanGeometryError), or nullptr.
+  const char* geometry_error = nullptr;
   int invalid_observations = 0;  ///< non-finite observations dropped
   int invalid_decisions = 0;     ///< associator output fixed up (treated as rejected)
   double stamp = 0.0;
@@ -158,6 +170,10 @@ struct PipelineCounters {
   std::uint64_t scans = 0;
   std::uint64_t odometry_gaps = 0;            ///< gaps longer than max_odometry_gap
   std::uint64_t rejected_odometry = 0;        ///< non-finite values
+  std::uint64_t implausible_odometry = 0;     ///< twist beyond max_speed / max_yaw_rate
+  std::uint64_t invalid_orientations = 0;     ///< pose_delta: a quaternion with no rotation
+  std::uint64_t inconsistent_scans = 0;       ///< angles contradict the beams: prediction only
+  std::uint64_t duplicate_scans = 0;          ///< repeats of the previous scan: dropped
   std::uint64_t rejected_updates = 0;         ///< EKF refused the batch update
   std::uint64_t invalid_ranges = 0;           ///< NaN / negative beams seen by the extractor
   std::uint64_t scans_before_odometry = 0;    ///< processed with no odometry yet (no prediction)
@@ -219,14 +235,19 @@ class SlamPipeline {
   void setSensorOffset(const Eigen::Vector3d& offset);
   const Eigen::Vector3d& sensorOffset() const { return model_.sensorOffset(); }
 
-  /// Odometry, in stamp order. Returns false (and counts it) for a non-finite message or one
-  /// older than time() (late_odometry). O(1), no allocation.
+  /// Odometry, in stamp order. Returns false (and counts it) for a non-finite message, a twist
+  /// beyond max_speed / max_yaw_rate (implausible_odometry), a pose without orientation in
+  /// pose_delta mode (invalid_orientations) or one older than time() (late_odometry). O(1), no
+  /// allocation.
   bool addOdometry(const OdometryInput& odom);
 
   /// A laser scan: beam i at angle_min + i * angle_increment. Predicts to `stamp`, extracts the
-  /// trees, associates, updates.
+  /// trees, associates, updates. With angle_max (sensor_msgs/LaserScan's) the geometry is
+  /// checked first (scanGeometryError): an inconsistent scan is used for prediction only and
+  /// counted (inconsistent_scans, ScanReport::geometry_error). A scan equal to the previous one
+  /// (stamp, angles, ranges) is dropped and counted (duplicate_scans, ScanReport::duplicate).
   ScanReport processScan(double stamp, const std::vector<float>& ranges, double angle_min,
-                         double angle_increment);
+                         double angle_increment, std::optional<double> angle_max = std::nullopt);
   /// Observations from an external extractor or a simulator. Observations whose R is all zeros
   /// get the configured default noise.
   ScanReport processObservations(double stamp, std::vector<Observation> observations);
@@ -327,6 +348,10 @@ class SlamPipeline {
   /// pose_delta mode: odometry-frame pose at time_ (last_odom_.pose extrapolated to time_).
   Eigen::Vector3d odom_pose_at_time_ = Eigen::Vector3d::Zero();
   std::uint32_t scans_ = 0;
+  // The previous scan, to recognise a repeat of it.
+  double last_scan_stamp_ = std::numeric_limits<double>::quiet_NaN();
+  double last_scan_angle_min_ = 0.0, last_scan_angle_increment_ = 0.0;
+  std::vector<float> last_scan_ranges_;
 
   // Composed motion since the last EKF prediction (pose at time_, F, Q).
   mutable MotionStep pending_;

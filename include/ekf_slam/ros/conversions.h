@@ -12,6 +12,7 @@
 #include <nav_msgs/Odometry.h>
 #include <ros/time.h>
 #include <sensor_msgs/LaserScan.h>
+#include <tf2/buffer_core.h>
 #include <Eigen/Core>
 #include <boost/array.hpp>
 
@@ -31,6 +32,12 @@ geometry_msgs::Quaternion toQuaternionMsg(double yaw);
 /// ROS's 6x6 (x, y, z, roll, pitch, yaw) covariance of a planar (x, y, yaw) one: P at rows and
 /// columns 0, 1, 5; z, roll and pitch get `other_variance` on the diagonal; the rest is zero.
 boost::array<double, 36> toCovarianceMsg(const Eigen::Matrix3d& P, double other_variance = 0.0);
+
+/// Pose (x, y, yaw) of a sensor frame on `base_frame`, one rule for the node and the offline
+/// runner: base_frame itself is the origin; an empty frame name, a missing transform or a
+/// non-finite one throws tf2::TransformException (the message is then skipped and counted).
+Eigen::Vector3d sensorOffset(const tf2::BufferCore& tf, const std::string& base_frame,
+                             const std::string& frame);
 
 /// nav_msgs/Odometry -> twist (v, w) and planar pose, stamped with header.stamp.
 OdometryInput toOdometryInput(const nav_msgs::Odometry& msg);

@@ -106,8 +106,13 @@ class EkfSlamNode {
   /// Messages missing by header.seq, per input (transport drops or upstream losses).
   struct SeqGaps {
     std::uint64_t missing = 0;
+    /// header.seq of the first message ever received: that many were published before this
+    /// node received any (it started late, or a fast publisher such as `rosbag play -r 100`
+    /// without -d sent them before the subscription was connected).
+    std::uint64_t before_first = 0;
     std::uint32_t last = 0;
     bool have = false;
+    bool seen = false;
     /// Returns the number of messages missing before this one.
     std::uint64_t check(std::uint32_t seq);
   };
@@ -134,6 +139,8 @@ class EkfSlamNode {
   /// Hands every released item to the pipeline.
   void drain();
   void process(const SensorInput& input, double stamp);
+  /// Warns about odometry the pipeline just rejected (non-finite, implausible, no orientation).
+  void warnRejectedOdometry();
   void publish(const ScanReport& report);
   /// map -> odom from the pose at the last scan and odom -> base_frame at its stamp.
   void updateMapToOdom();
@@ -220,6 +227,7 @@ class EkfSlamNode {
   std::uint64_t latency_count_ = 0;
   std::uint64_t flushes_ = 0;
   std::uint64_t resets_ = 0;
+  PipelineCounters warned_;  ///< counters at the last odometry warning
 };
 
 /// The whole node: construct, spin, report. Returns the process exit code (non-zero when the

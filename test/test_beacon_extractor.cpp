@@ -5,44 +5,16 @@
 #include <map>
 #include <vector>
 
+#include "beacon_scans.h"
 #include "ekf_slam/core/feature_extraction/beacon_extractor.h"
 
 using namespace ekf_slam;
 using Params = std::map<std::string, std::string>;
+using beacon_scans::scanOf;
 
 namespace {
 
 constexpr double kIncrement = M_PI / 360.0;  // 0.5 deg, 361 beams over 180 deg
-
-struct Cylinder {
-  double x, y, radius, intensity;
-};
-
-// Beams against a wall at `wall` m (intensity 100) and the given cylinders.
-LaserScanData scanOf(const std::vector<Cylinder>& cylinders, double wall = 25.0) {
-  LaserScanData s;
-  s.angle_min = -M_PI / 2;
-  s.angle_increment = kIncrement;
-  s.range_max = 80.0;
-  for (int i = 0; i <= 360; ++i) {
-    const double a = s.angle_min + i * kIncrement;
-    const double dx = std::cos(a), dy = std::sin(a);
-    double best = wall, intensity = 100.0;
-    for (const Cylinder& c : cylinders) {
-      const double along = c.x * dx + c.y * dy;
-      const double d2 = c.x * c.x + c.y * c.y - along * along;
-      if (d2 > c.radius * c.radius || along <= 0.0) continue;
-      const double t = along - std::sqrt(c.radius * c.radius - d2);
-      if (t < best) {
-        best = t;
-        intensity = c.intensity;
-      }
-    }
-    s.ranges.push_back(static_cast<float>(best));
-    s.intensities.push_back(static_cast<float>(intensity));
-  }
-  return s;
-}
 
 BeaconExtractorParams withRadius(double r) {
   BeaconExtractorParams p;

@@ -1,5 +1,7 @@
 #include "ekf_slam/tools/scan_filter_yaml.h"
 
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 #include <yaml-cpp/yaml.h>
@@ -52,13 +54,11 @@ std::vector<ScanFilterSpec> fromRoot(const YAML::Node& root, const std::string& 
 
 std::vector<ScanFilterSpec> readScanFilterChainFile(const std::string& path) {
   if (path.empty()) return {};
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error("cannot read parameters from " + path + ": " + e.what());
-  }
-  return fromRoot(root, path);
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read parameters from " + path);
+  std::stringstream text;
+  text << in.rdbuf();  // an empty file is no chain (failbit set, nothing read)
+  return readScanFilterChainText(text.str(), path);
 }
 
 std::vector<ScanFilterSpec> readScanFilterChainText(const std::string& text,

@@ -1,15 +1,15 @@
 // Creates plugins by their pluginlib name ("ekf_slam/DJNN", "ekf_slam/FGCBB") and configures them:
 // one loader for every plugin family of the package (data associators, relocalisers, feature
-// extractors), used by the
-// SLAM node, the offline runner and the tools, so that all of them pick algorithms the same way.
+// extractors), used by the SLAM node, the offline runner and the tools, so that all of them pick
+// algorithms the same way.
 //
 //   AssociatorLoader loader;                       // = PluginLoader<DataAssociation>
 //   auto djnn = loader.create("DJNN", params);     // bare names get the "ekf_slam/" prefix
 //   RelocaliserLoader relocalisers;                // = PluginLoader<Relocaliser>
 //
 // A family is declared once in PluginFamily<Base> (base class name for pluginlib, a noun for
-// messages, the default plugin); the loader itself is written once and instantiated for both
-// families in plugin_loader.cpp.
+// messages, the default plugin); the loader itself is written once and instantiated for each
+// family in plugin_loader.cpp.
 //
 // Lifetime: the plugin library stays loaded as long as the pluginlib loader lives. Every
 // instance returned by create() holds a reference to the loader, so the library cannot be

@@ -65,6 +65,7 @@ std::vector<DetectedBeacon> BeaconExtractor::detect(const LaserScanData& scan) c
            scan.intensities[i] >= p_.intensity_threshold;
   };
   const double inc = scan.angle_increment;
+  const bool weighted = p_.centre == "intensity";
   // Closes the group [first, last] (reflective beams only inside it are used).
   const auto close = [&](int first, int last) {
     double sx = 0.0, sy = 0.0, sw = 0.0, sr = 0.0;
@@ -72,7 +73,7 @@ std::vector<DetectedBeacon> BeaconExtractor::detect(const LaserScanData& scan) c
     for (int i = first; i <= last; ++i) {
       if (!reflective(i)) continue;
       const double a = scan.angle_min + i * inc;
-      const double w = p_.centre == "intensity" ? scan.intensities[i] : 1.0;
+      const double w = weighted ? scan.intensities[i] : 1.0;
       sx += w * scan.ranges[i] * std::cos(a);
       sy += w * scan.ranges[i] * std::sin(a);
       sw += w;

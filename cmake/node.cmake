@@ -44,4 +44,12 @@ if(CATKIN_ENABLE_TESTING)
     add_rostest(test/node.test ARGS associator:=ekf_slam/${a} DEPENDENCIES test_node)
   endforeach()
   add_rostest(test/node_bad_input.test DEPENDENCIES test_node)
+  # A user's BeaconExtractor config through launch/ekf_slam.launch, and the offline runner.
+  add_rostest_gtest(test_node_beacons test/node_beacons.test test/test_node_beacons.cpp)
+  target_include_directories(test_node_beacons PRIVATE test)
+  target_link_libraries(test_node_beacons ekf_slam_offline_runner)
+  target_compile_definitions(test_node_beacons PRIVATE
+    EKF_SLAM_TEST_DATA="${PROJECT_SOURCE_DIR}/test/data")
+  add_dependencies(test_node_beacons ekf_slam_node_main ekf_slam_extraction_plugins
+                   ekf_slam_association_plugins)
 endif()

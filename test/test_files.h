@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <stdlib.h>
 
+#include <cstdlib>
 #include <cstring>
 
 #include <filesystem>
@@ -12,6 +13,8 @@
 #include <stdexcept>
 #include <string>
 #include <system_error>
+#include <utility>
+#include <vector>
 
 namespace test_files {
 
@@ -44,6 +47,23 @@ inline std::string readFile(const std::string& path) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+/// (x, y) of every row of the offline runner's landmarks.csv (id,x,y,...), header skipped.
+inline std::vector<std::pair<double, double>> landmarkPositions(const std::string& path) {
+  std::ifstream csv(path);
+  std::string line;
+  std::getline(csv, line);
+  std::vector<std::pair<double, double>> out;
+  while (std::getline(csv, line)) {
+    std::istringstream row(line);
+    std::string id, x, y;
+    std::getline(row, id, ',');
+    std::getline(row, x, ',');
+    std::getline(row, y, ',');
+    out.emplace_back(std::strtod(x.c_str(), nullptr), std::strtod(y.c_str(), nullptr));
+  }
+  return out;
 }
 
 /// True in CI (CI=true), where every input a test needs must be there.

@@ -476,18 +476,9 @@ TEST(Simulate, OfflineRunnerMapsTheWorld) {
   // The mapped landmarks lie on the true ones (the map frame is the world frame: the YAML's
   // initial pose is the start pose).
   const sim::World world = sim::makeWorld("tiny");
-  std::ifstream csv(offline.out_dir + "/landmarks.csv");
-  std::string line;
-  std::getline(csv, line);
   std::vector<Eigen::Vector2d> mapped;
-  while (std::getline(csv, line)) {
-    std::istringstream row(line);
-    std::string id, x, y;
-    std::getline(row, id, ',');
-    std::getline(row, x, ',');
-    std::getline(row, y, ',');
-    mapped.emplace_back(parseNumber(x), parseNumber(y));
-  }
+  for (const auto& [x, y] : test_files::landmarkPositions(offline.out_dir + "/landmarks.csv"))
+    mapped.emplace_back(x, y);
   int found = 0;
   for (const auto& p : world.landmarks) {
     for (const auto& m : mapped) {

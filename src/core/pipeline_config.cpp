@@ -5,6 +5,8 @@
 #include <sstream>
 #include <string>
 
+#include "ekf_slam/core/feature_extraction/tree_feature_extractor.h"
+
 namespace ekf_slam {
 
 namespace {
@@ -162,20 +164,9 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
            "must be < max_observation_range (" + std::to_string(c.max_observation_range) + ")");
   }
 
-  TreeExtractorParams& e = c.extractor;
-  e.max_range = r.positive("extractor_max_range", e.max_range);
-  e.range_jump = r.positive("extractor_range_jump", e.range_jump);
-  e.angle_gap = r.positive("extractor_angle_gap", e.angle_gap);
-  e.occlusion_distance = r.nonNegative("extractor_occlusion_distance", e.occlusion_distance);
-  e.occlusion_lookahead =
-      r.integer("extractor_occlusion_lookahead", e.occlusion_lookahead, 0, 1000);
-  e.neighbour_angle = r.nonNegative("extractor_neighbour_angle", e.neighbour_angle);
-  e.max_extent = r.positive("extractor_max_extent", e.max_extent);
-  e.min_range = r.nonNegative("extractor_min_range", e.min_range);
-  e.edge_margin = r.nonNegative("extractor_edge_margin", e.edge_margin);
-  e.max_range_difference_divisor =
-      r.positive("extractor_max_range_difference_divisor", e.max_range_difference_divisor);
-  e.range_resolution = r.nonNegative("extractor_range_resolution", e.range_resolution);
+  // TreeExtractor's parameters under their historical top-level names.
+  c.extractor = readTreeExtractorParams(params, "extractor_", c.extractor);
+  c.feature_extractor = r.text("extractor", c.feature_extractor);
 
   c.initial_pose =
       Eigen::Vector3d(r.number("initial_pose_x", c.initial_pose.x()),

@@ -2,6 +2,8 @@
 // association -> EKF update / initialisation / removal. See slam_pipeline.h.
 #include "ekf_slam/core/slam_pipeline.h"
 
+#include "ekf_slam/core/feature_extraction/tree_feature_extractor.h"
+
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
@@ -51,7 +53,7 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
     : config_(config),
       associator_(std::move(associator)),
       index_(config.index_cell_size),
-      extractor_(config.extractor),
+      extractor_(std::make_shared<TreeFeatureExtractor>(config.extractor)),
       twist_model_(config.twist),
       pose_delta_model_(config.pose_delta),
       correction_(config.correction) {
@@ -440,14 +442,40 @@ double SlamPipeline::predictTo(double stamp, ScanReport* report) {
 
 // --- scans ---------------------------------------------------------------------------------------
 
+void SlamPipeline::setFeatureExtractor(std::shared_ptr<FeatureExtractor> extractor) {
+  extractor_ =
+      extractor ? std::move(extractor) : std::make_shared<TreeFeatureExtractor>(config_.extractor);
+}
+
 ScanReport SlamPipeline::processScan(double stamp, const std::vector<float>& ranges,
                                      double angle_min, double angle_increment,
                                      std::optional<double> angle_max) {
+  LaserScanData scan;
+  scan.ranges = ranges;
+  scan.angle_min = angle_min;
+  scan.angle_increment = angle_increment;
+  scan.angle_max = angle_max;
+  return processScan(stamp, scan);
+}
+
+ScanReport SlamPipeline::processScan(double stamp, const LaserScanData& input) {
+  // A scan the extractor or a filter cannot use at all is a configuration error: it throws
+  // before anything changes, so the caller can say so and the state stays as it was.
+  const LaserScanData* scan = &input;
+  if (!scan_filter_.empty()) {
+    filtered_scan_ = input;
+    scan_filter_.apply(&filtered_scan_, model_.sensorOffset());
+    scan = &filtered_scan_;
+  }
+  extractor_->checkScan(*scan);
+  const std::vector<float>& ranges = scan->ranges;
+  const double angle_min = input.angle_min, angle_increment = input.angle_increment;
+
   ScanReport report;
   // A repeat of the previous scan (a duplicated message, a driver publishing twice) would be
   // used twice, counting every tree as two sightings.
   if (stamp == last_scan_stamp_ && angle_min == last_scan_angle_min_ &&
-      angle_increment == last_scan_angle_increment_ && ranges == last_scan_ranges_) {
+      angle_increment == last_scan_angle_increment_ && input.ranges == last_scan_ranges_) {
     ++counters_.duplicate_scans;
     report.duplicate = true;
     report.stamp = stamp;
@@ -456,11 +484,11 @@ ScanReport SlamPipeline::processScan(double stamp, const std::vector<float>& ran
   last_scan_stamp_ = stamp;
   last_scan_angle_min_ = angle_min;
   last_scan_angle_increment_ = angle_increment;
-  last_scan_ranges_ = ranges;
+  last_scan_ranges_ = input.ranges;
   report.stamp = predictTo(stamp, &report);
-  if (angle_max)
+  if (input.angle_max)
     report.geometry_error =
-        scanGeometryError(ranges.size(), angle_min, *angle_max, angle_increment);
+        scanGeometryError(input.ranges.size(), angle_min, *input.angle_max, angle_increment);
   if (report.geometry_error) {
     // Trees would be placed at wrong bearings: the scan is only a time step.
     ++counters_.inconsistent_scans;
@@ -477,22 +505,27 @@ ScanReport SlamPipeline::processScan(double stamp, const std::vector<float>& ran
   }
   counters_.invalid_ranges += invalid;
   const bool usable = !ranges.empty() && invalid < static_cast<int>(ranges.size()) &&
-                      std::isfinite(angle_min) && std::isfinite(angle_increment) &&
-                      angle_increment != 0.0;
+                      std::isfinite(scan->angle_min) && std::isfinite(scan->angle_increment) &&
+                      scan->angle_increment != 0.0;
   std::vector<Observation> observations;
   if (usable) {
     const Eigen::Matrix2d R = Eigen::Vector2d(config_.sigma_range * config_.sigma_range,
                                               config_.sigma_bearing * config_.sigma_bearing)
                                   .asDiagonal();
-    for (const DetectedTree& t : extractor_.extract(ranges, angle_min, angle_increment)) {
-      if (!(t.range >= config_.min_observation_range && t.range <= config_.max_observation_range))
+    for (Observation& o : extractor_->extract(*scan)) {
+      const double range = o.z(0);
+      if (!(range >= config_.min_observation_range && range <= config_.max_observation_range))
         continue;
-      Observation o;
-      o.z = Eigen::Vector2d(t.range, t.bearing);
-      o.R = R;
-      o.descriptor = t.diameter;
+      if (o.R.isZero(0.0)) o.R = R;
+      // A plugin's output is checked like any external observation.
+      if (!(o.z.allFinite() && o.R.allFinite() && o.R(0, 0) > 0.0 && o.R(1, 1) > 0.0 &&
+            o.R.determinant() > 0.0 && !std::isinf(o.descriptor))) {
+        ++report.invalid_observations;
+        continue;
+      }
       observations.push_back(o);
     }
+    counters_.invalid_observations += report.invalid_observations;
   }
   report.extraction_s = secondsSince(t0);
   if (!usable) {

@@ -1,5 +1,6 @@
-// detect_trees: runs ACFR's tree detector over every sensor_msgs/LaserScan of a bag (no roscore),
-// or over the Victoria Park ASCII laser file, and writes one CSV row per detected tree.
+// detect_trees: runs a feature extractor plugin (ACFR's tree detector by default) over every
+// sensor_msgs/LaserScan of a bag (no roscore), or over the Victoria Park ASCII laser file, and
+// writes one CSV row per detected feature.
 #include <sensor_msgs/LaserScan.h>
 
 #include <cerrno>
@@ -17,6 +18,9 @@
 
 #include "ekf_slam/core/tree_extractor.h"
 #include "ekf_slam/data/victoria_park.h"
+#include "ekf_slam/ros/extractor_loader.h"
+#include "ekf_slam/tools/scan_filter_yaml.h"
+#include "ekf_slam/tools/yaml_parameter_source.h"
 
 namespace {
 
@@ -25,19 +29,46 @@ struct Counts {
   std::size_t trees = 0;
 };
 
+// The extractor and the scan filters, as the offline runner sets them up from the same YAML.
+struct Frontend {
+  std::shared_ptr<ekf_slam::FeatureExtractor> extractor;
+  ekf_slam::ScanFilterChain filters;
+
+  std::vector<ekf_slam::DetectedTree> detect(ekf_slam::LaserScanData scan) const {
+    filters.apply(&scan, Eigen::Vector3d::Zero());  // the box filter's box: laser frame here
+    extractor->checkScan(scan);
+    std::vector<ekf_slam::DetectedTree> out;
+    for (const ekf_slam::Observation& o : extractor->extract(scan))
+      out.push_back({o.z(0), o.z(1), o.descriptor, -1, -1});
+    return out;
+  }
+};
+
+void writeRows(const Frontend& f, const ekf_slam::LaserScanData& scan, std::uint32_t seq,
+               double stamp, std::ostream& csv, Counts* c) {
+  const auto trees = f.detect(scan);
+  ekf_slam::writeTreesCsvRows(csv, seq, stamp, trees);
+  ++c->scans;
+  c->trees += trees.size();
+}
+
 void usage(std::ostream& out) {
   out << "Usage: rosrun ekf_slam detect_trees --bag FILE.bag --out trees.csv [--topic /scan]\n"
          "       rosrun ekf_slam detect_trees --data DIR --out trees.csv\n"
-         "Runs ACFR's Victoria Park tree detector on every scan and writes\n"
-         "scan,stamp,range,bearing,diameter (scan = header.seq, stamp [s], bearing in the\n"
-         "LaserScan convention [rad], range to the trunk centre and diameter [m]).\n"
+         "       [--extractor NAME] [--params FILE.yaml]\n"
+         "Runs a feature extractor (default ekf_slam/TreeExtractor, ACFR's Victoria Park tree\n"
+         "detector) on every scan and writes scan,stamp,range,bearing,diameter (scan =\n"
+         "header.seq, stamp [s], bearing in the LaserScan convention [rad], range to the\n"
+         "feature's centre and its descriptor, e.g. the trunk diameter [m]).\n"
+         "--params: the node's YAML (the extractor's section, scan_filter_chain; the box\n"
+         "filter's box is in the laser frame here).\n"
          "--data reads victoria_park_ascii/LASER.txt under DIR instead of a bag (scan = index,\n"
          "stamp = data milliseconds / 1000, as in the converted bag). DIR may be \"default\"\n"
          "($VP_DATA or the shared data folder).\n";
 }
 
-Counts fromBag(const std::string& path, const std::string& topic, std::ostream& csv) {
-  const ekf_slam::TreeExtractor extractor;
+Counts fromBag(const Frontend& f, const std::string& path, const std::string& topic,
+               std::ostream& csv) {
   rosbag::Bag bag(path, rosbag::bagmode::Read);
   rosbag::View view(bag, rosbag::TopicQuery(topic));
   Counts c;
@@ -47,41 +78,52 @@ Counts fromBag(const std::string& path, const std::string& topic, std::ostream& 
       throw std::runtime_error(topic + " carries " + m.getDataType() +
                                ", not sensor_msgs/LaserScan");
     }
-    const auto trees = extractor.extract(scan->ranges, scan->angle_min, scan->angle_increment);
-    ekf_slam::writeTreesCsvRows(csv, scan->header.seq, scan->header.stamp.toSec(), trees);
-    ++c.scans;
-    c.trees += trees.size();
+    writeRows(f, ekf_slam::toScanData(*scan), scan->header.seq, scan->header.stamp.toSec(), csv,
+              &c);
   }
   return c;
 }
 
-Counts fromData(const std::string& dir, std::ostream& csv) {
+Counts fromData(const Frontend& f, const std::string& dir, std::ostream& csv) {
   namespace vp = ekf_slam::victoria_park;
   const vp::LaserScans laser = vp::loadLaser(dir);
-  const ekf_slam::TreeExtractor extractor;
   Counts c;
+  ekf_slam::LaserScanData scan;
+  scan.angle_min = -M_PI / 2;  // the same geometry as the converted bag's LaserScans
+  scan.angle_increment = M_PI / 360;
   for (std::size_t i = 0; i < laser.ranges.size(); ++i) {
-    // The same geometry as the converted bag's LaserScans.
-    const auto trees = extractor.extract(laser.ranges[i], -M_PI / 2, M_PI / 360);
-    ekf_slam::writeTreesCsvRows(csv, static_cast<std::uint32_t>(i), laser.time_ms[i] / 1000.0,
-                                trees);
-    ++c.scans;
-    c.trees += trees.size();
+    scan.ranges = laser.ranges[i];
+    writeRows(f, scan, static_cast<std::uint32_t>(i), laser.time_ms[i] / 1000.0, csv, &c);
   }
   return c;
+}
+
+Frontend makeFrontend(const ekf_slam::ExtractorLoader& loader, const std::string& name,
+                      const std::string& params) {
+  using ekf_slam::YamlParameterSource;
+  const std::string lookup = ekf_slam::ExtractorLoader::lookupName(name);
+  const YamlParameterSource top =
+      params.empty() ? YamlParameterSource() : YamlParameterSource::fromFile(params);
+  const YamlParameterSource section =
+      params.empty() ? YamlParameterSource()
+                     : YamlParameterSource::fromFile(params, lookup.substr(lookup.rfind('/') + 1),
+                                                     YamlParameterSource::Scope::kSectionOnly);
+  return {ekf_slam::createFeatureExtractor(loader, lookup, section, top),
+          ekf_slam::ScanFilterChain::fromSpecs(ekf_slam::readScanFilterChainFile(params))};
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string bag, data, out, topic = "/scan";
+  std::string bag, data, out, topic = "/scan", extractor = "ekf_slam/TreeExtractor", params;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "-h" || arg == "--help") {
       usage(std::cout);
       return 0;
     }
-    const bool known = arg == "--bag" || arg == "--data" || arg == "--out" || arg == "--topic";
+    const bool known = arg == "--bag" || arg == "--data" || arg == "--out" || arg == "--topic" ||
+                       arg == "--extractor" || arg == "--params";
     if (!known || i + 1 >= argc) {
       std::cerr << "detect_trees: " << (known ? "missing value for " : "unknown argument ") << arg
                 << "\n";
@@ -89,7 +131,12 @@ int main(int argc, char** argv) {
       return 2;
     }
     const std::string value = argv[++i];
-    (arg == "--bag" ? bag : arg == "--data" ? data : arg == "--out" ? out : topic) = value;
+    (arg == "--bag"         ? bag
+     : arg == "--data"      ? data
+     : arg == "--out"       ? out
+     : arg == "--extractor" ? extractor
+     : arg == "--params"    ? params
+                            : topic) = value;
   }
   if (out.empty() || bag.empty() == data.empty()) {
     std::cerr << "detect_trees: give --out and exactly one of --bag or --data\n";
@@ -106,8 +153,10 @@ int main(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   Counts c;
   try {
+    const ekf_slam::ExtractorLoader loader;
+    const Frontend frontend = makeFrontend(loader, extractor, params);
     ekf_slam::writeTreesCsvHeader(csv);
-    c = bag.empty() ? fromData(data, csv) : fromBag(bag, topic, csv);
+    c = bag.empty() ? fromData(frontend, data, csv) : fromBag(frontend, bag, topic, csv);
   } catch (const std::exception& e) {
     std::cerr << "detect_trees: " << (bag.empty() ? data : bag) << ": " << e.what() << "\n";
     csv.close();

@@ -88,6 +88,14 @@ EkfSlamNode::EkfSlamNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   // Scan -> observations -> association -> EKF update: the pipeline owns the whole flow.
   pipeline_ = std::make_unique<SlamPipeline>(pipeline_config_, associator_);
   if (relocaliser_) pipeline_->setRelocaliser(relocaliser_);
+  pipeline_->setFeatureExtractor(extractor_);
+  pipeline_->setScanFilter(scan_filter_);
+  if (extractor_->needsIntensities() || scan_filter_.needsIntensities()) {
+    ROS_INFO(
+        "ekf_slam: extractor %s%s needs the scans' intensity channel; a scan without one is "
+        "an error",
+        extractor_->name().c_str(), scan_filter_.needsIntensities() ? " (or a scan filter)" : "");
+  }
   if (!config_.initial_map.empty()) {
     // Throws (the node does not start) when the file is bad or a relocaliser is missing.
     pipeline_->loadMap(config_.initial_map, true, config_.initial_map_unknown_pose);
@@ -223,8 +231,15 @@ void EkfSlamNode::readParameters() {
   const RosParameterSource assoc_ros(pnh_, shortName(config_.associator));
   const RecordingParameterSource assoc_source(assoc_ros, assoc_ros.names());
   associator_ = loader_.create(config_.associator, assoc_source);
-  source.rejectUnread();
+  // The feature extractor reads its own namespace too, e.g. ~BeaconExtractor/...
+  const std::string extractor = ExtractorLoader::lookupName(pipeline_config_.feature_extractor);
+  const RosParameterSource extractor_ros(pnh_, shortName(extractor));
+  const RecordingParameterSource extractor_source(extractor_ros, extractor_ros.names());
+  extractor_ = createFeatureExtractor(extractor_loader_, extractor, extractor_source, source);
+  scan_filter_ = ScanFilterChain::fromSpecs(readScanFilterChain(pnh_));
+  source.rejectUnread({"scan_filter_chain"});
   assoc_source.rejectUnread();
+  extractor_source.rejectUnread();
   // The relocaliser (docs/relocalisation.md) reads its own namespace too, e.g. ~FGCBB/...
   if (!pipeline_config_.relocaliser.empty()) {
     const std::string name = RelocaliserLoader::lookupName(pipeline_config_.relocaliser);
@@ -502,8 +517,7 @@ void EkfSlamNode::process(const SensorInput& input, double stamp) {
   ScanReport report;
   try {
     if (input.scan) {
-      const sensor_msgs::LaserScan& s = *input.scan;
-      report = pipeline_->processScan(stamp, s.ranges, s.angle_min, s.angle_increment, s.angle_max);
+      report = pipeline_->processScan(stamp, toScanData(*input.scan));
     } else {
       report = pipeline_->processObservations(stamp, toObservations(*input.observations));
     }

@@ -43,9 +43,11 @@
 #include "ekf_slam/ros/checked_bag_reader.h"
 #include "ekf_slam/ros/conversions.h"
 #include "ekf_slam/ros/ekf_slam_node.h"
+#include "ekf_slam/ros/extractor_loader.h"
 #include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/tools/association_problem.h"
 #include "ekf_slam/tools/output_files.h"
+#include "ekf_slam/tools/scan_filter_yaml.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
 
 namespace ekf_slam {
@@ -101,10 +103,7 @@ class CapturingAssociator : public DataAssociation {
 
 struct ScanInput {
   double stamp;
-  std::vector<float> ranges;
-  double angle_min;
-  double angle_increment;
-  double angle_max;
+  LaserScanData data;
   std::string frame_id;
 };
 struct ObservationsInput {
@@ -184,8 +183,7 @@ BagContents readBag(const OfflineOptions& o) {
       } else if (topic == o.scan_topic) {
         if (const auto msg = reader.instantiate<sensor_msgs::LaserScan>(m)) {
           c.arrivals.push_back({Arrival::kScan, static_cast<std::uint32_t>(c.scans.size())});
-          c.scans.push_back({msg->header.stamp.toSec(), msg->ranges, msg->angle_min,
-                             msg->angle_increment, msg->angle_max, msg->header.frame_id});
+          c.scans.push_back({msg->header.stamp.toSec(), toScanData(*msg), msg->header.frame_id});
           continue;
         }
       } else if (topic == o.observations_topic) {
@@ -418,9 +416,25 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   const RecordingParameterSource assoc_params(assoc_yaml, assoc_yaml.names());
   AssociatorLoader loader;
   auto capturing = std::make_shared<CapturingAssociator>(loader.create(lookup, assoc_params));
-  top.rejectUnread();
+  // The feature extractor from its own section, the scan filters from scan_filter_chain.
+  const std::string extractor = ExtractorLoader::lookupName(config.feature_extractor);
+  const YamlParameterSource extractor_yaml =
+      o.params_path.empty()
+          ? YamlParameterSource()
+          : YamlParameterSource::fromFile(o.params_path, extractor.substr(extractor.rfind('/') + 1),
+                                          YamlParameterSource::Scope::kSectionOnly);
+  const RecordingParameterSource extractor_params(extractor_yaml, extractor_yaml.names());
+  ExtractorLoader extractor_loader;
+  const auto feature_extractor =
+      createFeatureExtractor(extractor_loader, extractor, extractor_params, top);
+  const ScanFilterChain scan_filter =
+      ScanFilterChain::fromSpecs(readScanFilterChainFile(o.params_path));
+  top.rejectUnread({"scan_filter_chain"});
   assoc_params.rejectUnread();
+  extractor_params.rejectUnread();
   SlamPipeline pipeline(config, capturing);
+  pipeline.setFeatureExtractor(feature_extractor);
+  pipeline.setScanFilter(scan_filter);
 
   // Relocaliser (recovery), configured from its own section like the associator.
   const std::string relocaliser = o.relocaliser.empty() ? config.relocaliser : o.relocaliser;
@@ -606,8 +620,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
             record(pipeline.processObservations(s.stamp, s.observations), &s);
           } else {
             const ScanInput& s = bag.scans[item.scan.index];
-            const ScanReport r = pipeline.processScan(s.stamp, s.ranges, s.angle_min,
-                                                      s.angle_increment, s.angle_max);
+            const ScanReport r = pipeline.processScan(s.stamp, s.data);
             if (r.geometry_error && pipeline.counters().inconsistent_scans == 1) {
               log << "warning: scan at " << std::fixed << s.stamp << std::defaultfloat << ": "
                   << r.geometry_error << ": used for prediction only (and every such scan)\n";

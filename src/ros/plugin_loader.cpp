@@ -72,8 +72,9 @@ std::shared_ptr<Base> PluginLoader<Base>::create(const std::string& name,
   return result;
 }
 
-// The two families of the package.
+// The families of the package.
 template class PluginLoader<DataAssociation>;
 template class PluginLoader<Relocaliser>;
+template class PluginLoader<FeatureExtractor>;
 
 }  // namespace ekf_slam

@@ -38,6 +38,8 @@
 #include "ekf_slam/core/chi2.h"
 #include "ekf_slam/core/data_association.h"
 #include "ekf_slam/core/ekf_slam.h"
+#include "ekf_slam/core/feature_extraction/feature_extractor.h"
+#include "ekf_slam/core/feature_extraction/scan_filter_chain.h"
 #include "ekf_slam/core/landmark_index.h"
 #include "ekf_slam/core/motion_models.h"
 #include "ekf_slam/core/observation_model.h"
@@ -65,7 +67,11 @@ struct PipelineConfig {
   double sigma_bearing = 1.0 * M_PI / 180.0;  ///< [rad]
   double max_observation_range = 30.0;        ///< trees farther away are not used [m]
   double min_observation_range = 1.0;         ///< nor closer ones [m]
+  /// TreeExtractor's parameters (top-level names extractor_*): the extractor SlamPipeline uses
+  /// until setFeatureExtractor() gives it another.
   TreeExtractorParams extractor;
+  /// Feature extractor plugin the shells load (parameter `extractor`); docs/feature_extraction.md.
+  std::string feature_extractor = "ekf_slam/TreeExtractor";
 
   Eigen::Vector3d initial_pose = Eigen::Vector3d::Zero();        ///< map frame
   Eigen::Vector3d initial_pose_sigma = Eigen::Vector3d::Zero();  ///< std devs (x, y, yaw)
@@ -241,13 +247,26 @@ class SlamPipeline {
   /// allocation.
   bool addOdometry(const OdometryInput& odom);
 
-  /// A laser scan: beam i at angle_min + i * angle_increment. Predicts to `stamp`, extracts the
-  /// trees, associates, updates. With angle_max (sensor_msgs/LaserScan's) the geometry is
-  /// checked first (scanGeometryError): an inconsistent scan is used for prediction only and
-  /// counted (inconsistent_scans, ScanReport::geometry_error). A scan equal to the previous one
-  /// (stamp, angles, ranges) is dropped and counted (duplicate_scans, ScanReport::duplicate).
+  /// A laser scan: beam i at angle_min + i * angle_increment. Predicts to `stamp`, filters the
+  /// beams (scan filter chain), extracts the features, associates, updates. Throws
+  /// ScanFormatError, before any state changes, for a scan the extractor or a filter cannot use
+  /// (e.g. no intensities for BeaconExtractor). With angle_max (sensor_msgs/LaserScan's) the
+  /// geometry is checked first (scanGeometryError): an inconsistent scan is used for prediction
+  /// only and counted (inconsistent_scans, ScanReport::geometry_error). A scan equal to the
+  /// previous one (stamp, angles, ranges) is dropped and counted (duplicate_scans,
+  /// ScanReport::duplicate).
+  ScanReport processScan(double stamp, const LaserScanData& scan);
+  /// The same for a scan without intensities or range limits.
   ScanReport processScan(double stamp, const std::vector<float>& ranges, double angle_min,
                          double angle_increment, std::optional<double> angle_max = std::nullopt);
+
+  /// The feature extractor (configured already) for processScan; the default is TreeExtractor
+  /// with config.extractor. Null restores the default.
+  void setFeatureExtractor(std::shared_ptr<FeatureExtractor> extractor);
+  const FeatureExtractor& featureExtractor() const { return *extractor_; }
+  /// Filters applied to every scan before extraction (empty by default).
+  void setScanFilter(ScanFilterChain chain) { scan_filter_ = std::move(chain); }
+  const ScanFilterChain& scanFilter() const { return scan_filter_; }
   /// Observations from an external extractor or a simulator. Observations whose R is all zeros
   /// get the configured default noise.
   ScanReport processObservations(double stamp, std::vector<Observation> observations);
@@ -336,7 +355,9 @@ class SlamPipeline {
   mutable EkfSlam ekf_;  // mutable: ekf() applies the pending motion
   LandmarkIndex index_;
   RangeBearingModel model_;
-  TreeExtractor extractor_;
+  std::shared_ptr<FeatureExtractor> extractor_;
+  ScanFilterChain scan_filter_;
+  LaserScanData filtered_scan_;  // workspace of the filter chain
   TwistModel twist_model_;
   PoseDeltaModel pose_delta_model_;
   OdometryCorrection correction_;

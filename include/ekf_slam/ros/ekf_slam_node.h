@@ -37,6 +37,7 @@
 #include "ekf_slam/core/input_sequencer.h"
 #include "ekf_slam/core/slam_pipeline.h"
 #include "ekf_slam/ros/associator_loader.h"
+#include "ekf_slam/ros/extractor_loader.h"
 #include "ekf_slam/ros/markers.h"
 
 namespace ekf_slam {
@@ -168,6 +169,9 @@ class EkfSlamNode {
   std::shared_ptr<DataAssociation> associator_;
   RelocaliserLoader relocaliser_loader_;
   std::shared_ptr<Relocaliser> relocaliser_;  ///< null: no recovery (`relocaliser` empty)
+  ExtractorLoader extractor_loader_;
+  std::shared_ptr<FeatureExtractor> extractor_;  ///< `extractor` (docs/feature_extraction.md)
+  ScanFilterChain scan_filter_;                  ///< `scan_filter_chain`
   std::unique_ptr<SlamPipeline> pipeline_;
   std::unique_ptr<InputSequencer<SensorInput>> sequencer_;
   LandmarkMarkers markers_;

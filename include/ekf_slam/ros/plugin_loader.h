@@ -1,14 +1,15 @@
 // Creates plugins by their pluginlib name ("ekf_slam/DJNN", "ekf_slam/FGCBB") and configures them:
-// one loader for every plugin family of the package (data associators, relocalisers), used by the
-// SLAM node, the offline runner and the tools, so that all of them pick algorithms the same way.
+// one loader for every plugin family of the package (data associators, relocalisers, feature
+// extractors), used by the SLAM node, the offline runner and the tools, so that all of them pick
+// algorithms the same way.
 //
 //   AssociatorLoader loader;                       // = PluginLoader<DataAssociation>
 //   auto djnn = loader.create("DJNN", params);     // bare names get the "ekf_slam/" prefix
 //   RelocaliserLoader relocalisers;                // = PluginLoader<Relocaliser>
 //
 // A family is declared once in PluginFamily<Base> (base class name for pluginlib, a noun for
-// messages, the default plugin); the loader itself is written once and instantiated for both
-// families in plugin_loader.cpp.
+// messages, the default plugin); the loader itself is written once and instantiated for each
+// family in plugin_loader.cpp.
 //
 // Lifetime: the plugin library stays loaded as long as the pluginlib loader lives. Every
 // instance returned by create() holds a reference to the loader, so the library cannot be
@@ -21,6 +22,7 @@
 #include <vector>
 
 #include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/feature_extraction/feature_extractor.h"
 #include "ekf_slam/core/parameters.h"
 #include "ekf_slam/core/relocalisation/relocaliser.h"
 
@@ -48,6 +50,13 @@ struct PluginFamily<Relocaliser> {
   static constexpr const char* kNoun = "relocaliser";
   /// Used when relocalisation is switched on without a name.
   static constexpr const char* kDefault = "ekf_slam/FGCBB";
+};
+
+template <>
+struct PluginFamily<FeatureExtractor> {
+  static constexpr const char* kBaseClass = "ekf_slam::FeatureExtractor";
+  static constexpr const char* kNoun = "feature extractor";
+  static constexpr const char* kDefault = "ekf_slam/TreeExtractor";
 };
 
 /// Thrown for a name no plugin of the family declares; the message lists the declared names.
@@ -89,5 +98,6 @@ class PluginLoader {
 
 using AssociatorLoader = PluginLoader<DataAssociation>;
 using RelocaliserLoader = PluginLoader<Relocaliser>;
+using ExtractorLoader = PluginLoader<FeatureExtractor>;
 
 }  // namespace ekf_slam

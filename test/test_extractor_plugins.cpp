@@ -1,0 +1,67 @@
+// Feature extractors through pluginlib: names, the unknown-name message, parameter sections and
+// TreeExtractor's fallback on the historical top-level names.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <string>
+
+#include "ekf_slam/core/feature_extraction/beacon_extractor.h"
+#include "ekf_slam/core/feature_extraction/tree_feature_extractor.h"
+#include "ekf_slam/ros/extractor_loader.h"
+
+using namespace ekf_slam;
+using Params = std::map<std::string, std::string>;
+
+TEST(ExtractorPlugins, DeclaredNames) {
+  const ExtractorLoader loader;
+  const auto names = loader.available();
+  for (const char* n : {"ekf_slam/TreeExtractor", "ekf_slam/BeaconExtractor"})
+    EXPECT_NE(std::find(names.begin(), names.end(), n), names.end()) << n;
+  EXPECT_STREQ(ExtractorLoader::kDefault, "ekf_slam/TreeExtractor");
+}
+
+TEST(ExtractorPlugins, MisspeltNameListsTheAvailableOnes) {
+  const ExtractorLoader loader;
+  try {
+    loader.create("BeaconExtracter", MapParameterSource());
+    FAIL() << "unknown extractor accepted";
+  } catch (const UnknownPluginError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("feature extractor 'BeaconExtracter'"), std::string::npos) << what;
+    EXPECT_NE(what.find("ekf_slam/BeaconExtractor"), std::string::npos) << what;
+    EXPECT_NE(what.find("ekf_slam/TreeExtractor"), std::string::npos) << what;
+  }
+}
+
+TEST(ExtractorPlugins, TreeExtractorFallsBackOnTopLevelNames) {
+  const ExtractorLoader loader;
+  const MapParameterSource top(
+      Params{{"extractor_max_range", "40"}, {"extractor_range_jump", "2"}});
+  const MapParameterSource section(Params{{"range_jump", "1.2"}});
+  const auto e = createFeatureExtractor(loader, "TreeExtractor", section, top);
+  const auto* tree = dynamic_cast<const TreeFeatureExtractor*>(e.get());
+  ASSERT_NE(tree, nullptr);
+  EXPECT_DOUBLE_EQ(tree->detector().params().max_range, 40.0);  // top level
+  EXPECT_DOUBLE_EQ(tree->detector().params().range_jump, 1.2);  // the section wins
+  EXPECT_DOUBLE_EQ(tree->detector().params().max_extent, 1.0);  // ACFR's default
+}
+
+TEST(ExtractorPlugins, BeaconExtractorReadsItsSectionOnly) {
+  const ExtractorLoader loader;
+  const MapParameterSource top(Params{{"extractor_max_range", "40"}});
+  const MapParameterSource section(Params{{"beacon_radius", "0.05"}, {"max_range", "20"}});
+  const auto e = createFeatureExtractor(loader, "ekf_slam/BeaconExtractor", section, top);
+  const auto* beacon = dynamic_cast<const BeaconExtractor*>(e.get());
+  ASSERT_NE(beacon, nullptr);
+  EXPECT_TRUE(e->needsIntensities());
+  EXPECT_DOUBLE_EQ(beacon->params().beacon_radius, 0.05);
+  EXPECT_DOUBLE_EQ(beacon->params().max_range, 20.0);
+  const MapParameterSource bad(Params{{"max_gap", "-1"}}, "BeaconExtractor/");
+  EXPECT_THROW(createFeatureExtractor(loader, "BeaconExtractor", bad, top), ParameterError);
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

@@ -46,12 +46,9 @@ CarParkRun runCarPark(std::uint64_t seed) {
   LandmarkId clutter = sim::kClutterIdBase;
   for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
     if (e == sim::Simulation::Event::kOdometry) {
+      // As runSimulation feeds it (and the offline runner a simulated bag).
       const sim::OdometrySample& o = simulation.odometry();
-      OdometryInput in;
-      in.stamp = o.stamp + sim::kStampOffset;
-      in.twist = o.twist;
-      in.pose = o.pose;
-      pipeline.addOdometry(in);
+      pipeline.addOdometry({o.stamp + sim::kStampOffset, o.twist, o.pose});
       continue;
     }
     // The simulator's point observations are ignored: the laser sees the scene at the true pose.

@@ -113,8 +113,9 @@ void checkBagStructure(const std::string& path) {
   in.seekg(0);
   const std::string magic = "#ROSBAG V2.0\n";
   std::string head(magic.size(), '\0');
-  if (!in.read(&head[0], head.size()) || head != magic)
-    throw CorruptMessageError("not a rosbag of format 2.0 (no '#ROSBAG V2.0' at its start)");
+  if (!in.read(&head[0], head.size()) || head.compare(0, 9, "#ROSBAG V") != 0)
+    throw CorruptMessageError("not a rosbag (no '#ROSBAG V' at its start)");
+  if (head != magic) return;  // an older format (1.2): left to rosbag
   std::uint64_t pos = magic.size();
   std::vector<std::uint8_t> buf;
   std::uint64_t chunk_size = 0;  // uncompressed size of the last chunk

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ekf_slam/data/victoria_park.h"
+#include "ekf_slam/ros/checked_bag_reader.h"
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
 #include "fault_bags.h"
@@ -211,6 +212,17 @@ TEST_F(BagFaults, CorruptedArrayLengthInsideAScanIsCaughtBeforeAllocating) {
   EXPECT_NE(r.error.find("ranges: 1073741824 elements"), std::string::npos) << r.error;
   EXPECT_NE(r.error.find("100 scans"), std::string::npos) << r.error;
   EXPECT_LT(r.max_rss_kb, kMaxRssKb);
+}
+
+TEST(BagStructure, NotABagIsNamedAndAnOlderFormatIsLeftToRosbag) {
+  test_files::TempDir dir("ekf_slam_faults");
+  std::ofstream(dir.file("text.bag")) << "hello, not a bag\n";
+  EXPECT_THROW(checkBagStructure(dir.file("text.bag")), CorruptMessageError);
+  std::ofstream(dir.file("old.bag")) << "#ROSBAG V1.2\n";
+  EXPECT_NO_THROW(checkBagStructure(dir.file("old.bag")));
+  // A truncated 2.0 bag: its first record overruns the file.
+  std::ofstream(dir.file("cut.bag")) << "#ROSBAG V2.0\n\xff\xff\x00\x00op";
+  EXPECT_THROW(checkBagStructure(dir.file("cut.bag")), CorruptMessageError);
 }
 
 // --- 2. inconsistent scan geometry -------------------------------------------------------------

@@ -11,11 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/association/hungarian.h"
-#include "ekf_slam/core/association/jcbb.h"
-#include "ekf_slam/core/association/nn.h"
-#include "ekf_slam/core/association/nnjcbb.h"
+#include "associators.h"
 #include "ekf_slam/tools/association_problem.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
 
@@ -24,15 +20,6 @@ namespace {
 
 const std::string kData = EKF_SLAM_TEST_DATA;
 
-std::unique_ptr<DataAssociation> make(const std::string& name) {
-  if (name == "NN") return std::make_unique<NN>();
-  if (name == "JCBB") return std::make_unique<JCBB>();
-  if (name == "DJNN") return std::make_unique<DJNN>();
-  if (name == "NNJCBB") return std::make_unique<NNJCBB>();
-  if (name == "Hungarian") return std::make_unique<Hungarian>();
-  return nullptr;
-}
-
 /// As the tool does it: problem alphas, overridden by the parameter file.
 ReplayResult replay(const AssociationProblem& problem, const std::string& name,
                     const std::string& yaml = "") {
@@ -40,7 +27,7 @@ ReplayResult replay(const AssociationProblem& problem, const std::string& name,
   for (const auto& [k, v] : problemParameters(problem, name)) {
     if (!params.contains(k)) params.set(k, v);
   }
-  auto assoc = make(name);
+  auto assoc = makeAssociator(name);
   assoc->configure(params);
   return replayAssociation(problem, *assoc);
 }

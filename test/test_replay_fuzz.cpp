@@ -18,12 +18,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/association/hungarian.h"
-#include "ekf_slam/core/association/jcbb.h"
-#include "ekf_slam/core/association/nn.h"
-#include "ekf_slam/core/association/nnjcbb.h"
-#include "ekf_slam/core/association/rrwsc.h"
+#include "associators.h"
 #include "ekf_slam/tools/association_problem.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
 
@@ -33,14 +28,6 @@ namespace {
 using Json = nlohmann::json;
 const std::string kData = EKF_SLAM_TEST_DATA;
 
-std::unique_ptr<DataAssociation> make(const std::string& name) {
-  if (name == "NN") return std::make_unique<NN>();
-  if (name == "JCBB") return std::make_unique<JCBB>();
-  if (name == "DJNN") return std::make_unique<DJNN>();
-  if (name == "NNJCBB") return std::make_unique<NNJCBB>();
-  if (name == "Hungarian") return std::make_unique<Hungarian>();
-  return std::make_unique<RRWSC>();
-}
 const std::vector<std::string> kAssociators = {"NN",     "JCBB",      "DJNN",
                                                "NNJCBB", "Hungarian", "RRWSC"};
 
@@ -133,7 +120,7 @@ TEST(ReplayFuzz, MutatedProblemsGiveAnErrorOrAFiniteAnswer) {
       SCOPED_TRACE("case " + std::to_string(c) + ", " + name + ": " + text);
       auto params = YamlParameterSource::fromString("", name);
       for (const auto& [k, v] : problemParameters(problem, name)) params.set(k, v);
-      auto assoc = make(name);
+      auto assoc = makeAssociator(name);
       ReplayResult r;
       try {
         assoc->configure(params);  // e.g. alpha 1e-308: probability 1 - alpha = 1 is refused

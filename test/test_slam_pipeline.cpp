@@ -339,6 +339,16 @@ TEST(SlamPipeline, LateScanIsProcessedAtTheCurrentTime) {
   EXPECT_NEAR(p.pose().x(), 1.0, 1e-12);  // no motion backwards or forwards
 }
 
+// An associator that makes every observation a new landmark.
+std::shared_ptr<ScriptedAssociator> everythingNew() {
+  return std::make_shared<ScriptedAssociator>([](const AssociationContext& ctx) {
+    AssociationResult r;
+    r.resize(ctx.numObservations());
+    for (auto& d : r.decision) d = Decision::kNew;
+    return r;
+  });
+}
+
 // A 361-beam, 0.5-deg scan (Victoria Park geometry) with one trunk at 10 m, bearing ~0.
 std::vector<float> scanWithOneTree() {
   std::vector<float> r(361, 80.0f);  // beyond the extractor's max range: no return
@@ -347,12 +357,7 @@ std::vector<float> scanWithOneTree() {
 }
 
 TEST(SlamPipeline, ScanExtractsTreesIntoObservations) {
-  auto a = std::make_shared<ScriptedAssociator>([](const AssociationContext& ctx) {
-    AssociationResult r;
-    r.resize(ctx.numObservations());
-    for (auto& d : r.decision) d = Decision::kNew;
-    return r;
-  });
+  auto a = everythingNew();
   SlamPipeline p(PipelineConfig(), a);
   p.addOdometry(odom(0.0, 0.0, 0.0));
   const ScanReport r = p.processScan(0.1, scanWithOneTree(), -M_PI / 2, M_PI / 360);
@@ -414,12 +419,7 @@ TEST(SlamPipeline, DuplicateScansAreDroppedAndCounted) {
 }
 
 TEST(SlamPipeline, InconsistentScanGeometryIsPredictionOnly) {
-  auto a = std::make_shared<ScriptedAssociator>([](const AssociationContext& ctx) {
-    AssociationResult r;
-    r.resize(ctx.numObservations());
-    for (auto& d : r.decision) d = Decision::kNew;
-    return r;
-  });
+  auto a = everythingNew();
   SlamPipeline p(PipelineConfig(), a);
   p.addOdometry(odom(0.0, 1.0, 0.0));
   const std::vector<float> r = scanWithOneTree();
@@ -444,12 +444,7 @@ TEST(SlamPipeline, InconsistentScanGeometryIsPredictionOnly) {
 }
 
 TEST(SlamPipeline, NonFiniteObservationsAreDropped) {
-  auto a = std::make_shared<ScriptedAssociator>([](const AssociationContext& ctx) {
-    AssociationResult r;
-    r.resize(ctx.numObservations());
-    for (auto& d : r.decision) d = Decision::kNew;
-    return r;
-  });
+  auto a = everythingNew();
   SlamPipeline p(PipelineConfig(), a);
   std::vector<Observation> obs(5);
   obs[0].z = Eigen::Vector2d(5.0, 0.1);

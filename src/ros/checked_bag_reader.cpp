@@ -31,19 +31,26 @@ std::string packageOf(const std::string& datatype) {
   return slash == std::string::npos ? "" : datatype.substr(0, slash);
 }
 
+// A uint32 length at *p that must fit in the bytes after it (up to `end`); advances p past it.
+std::uint32_t boundedLength(const std::uint8_t*& p, const std::uint8_t* end,
+                            const std::string& where, const char* what, const char* within) {
+  if (end - p < 4) throw CorruptMessageError(where + ": truncated " + what);
+  std::uint32_t len;
+  std::memcpy(&len, p, 4);
+  p += 4;
+  if (static_cast<std::uint64_t>(end - p) < len)
+    throw CorruptMessageError(where + ": " + what + " of " + std::to_string(len) +
+                              " bytes overruns its " + within);
+  return len;
+}
+
 // One record header's fields (name -> value), parsed with every length checked.
 std::map<std::string, std::string> parseHeader(const std::uint8_t* p, std::size_t size,
                                                const std::string& where) {
   std::map<std::string, std::string> fields;
   const std::uint8_t* end = p + size;
   while (p < end) {
-    std::uint32_t len;
-    if (end - p < 4) throw CorruptMessageError(where + ": truncated header field");
-    std::memcpy(&len, p, 4);
-    p += 4;
-    if (static_cast<std::uint64_t>(end - p) < len)
-      throw CorruptMessageError(where + ": header field of " + std::to_string(len) +
-                                " bytes overruns its header");
+    const std::uint32_t len = boundedLength(p, end, where, "header field", "header");
     const std::string field(reinterpret_cast<const char*>(p), len);
     p += len;
     const std::size_t eq = field.find('=');
@@ -81,25 +88,14 @@ void checkChunkRecords(const std::uint8_t* p, const std::uint8_t* end, std::uint
   const std::uint8_t* begin = p;
   while (p < end) {
     const std::string where = "record at byte " + std::to_string(base + (p - begin));
-    std::uint32_t len;
-    if (end - p < 4) throw CorruptMessageError(where + ": truncated");
-    std::memcpy(&len, p, 4);
-    p += 4;
-    if (static_cast<std::uint64_t>(end - p) < len)
-      throw CorruptMessageError(where + ": header of " + std::to_string(len) +
-                                " bytes overruns its chunk");
+    const std::uint32_t len = boundedLength(p, end, where, "header", "chunk");
     const auto h = parseHeader(p, len, where);
     p += len;
     const auto op = fieldValue<std::uint8_t>(h, "op", where);
     if (op != kMessageData && op != kConnection)
       throw CorruptMessageError(where + ": unexpected record type " + std::to_string(op));
-    if (end - p < 4) throw CorruptMessageError(where + ": truncated");
-    std::memcpy(&len, p, 4);
-    p += 4;
-    if (static_cast<std::uint64_t>(end - p) < len)
-      throw CorruptMessageError(where + ": data of " + std::to_string(len) +
-                                " bytes overruns its chunk");
-    p += len;
+    const std::uint32_t data = boundedLength(p, end, where, "data", "chunk");
+    p += data;
   }
 }
 
@@ -113,8 +109,9 @@ void checkBagStructure(const std::string& path) {
   in.seekg(0);
   const std::string magic = "#ROSBAG V2.0\n";
   std::string head(magic.size(), '\0');
-  if (!in.read(&head[0], head.size()) || head != magic)
-    throw CorruptMessageError("not a rosbag of format 2.0 (no '#ROSBAG V2.0' at its start)");
+  if (!in.read(&head[0], head.size()) || head.compare(0, 9, "#ROSBAG V") != 0)
+    throw CorruptMessageError("not a rosbag (no '#ROSBAG V' at its start)");
+  if (head != magic) return;  // an older format (1.2): left to rosbag
   std::uint64_t pos = magic.size();
   std::vector<std::uint8_t> buf;
   std::uint64_t chunk_size = 0;  // uncompressed size of the last chunk

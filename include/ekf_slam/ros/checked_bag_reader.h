@@ -33,7 +33,8 @@ class CorruptMessageError : public std::runtime_error {
 /// size it read, then assert). Walks every record: header and data lengths within the file,
 /// header fields well formed, chunk sizes at most kMaxChunkBytes, index offsets within their
 /// chunk, and the records inside uncompressed chunks likewise (compressed chunks are left to
-/// rosbag's decompressor). Streams the file: memory is one chunk. Throws CorruptMessageError
+/// rosbag's decompressor; bags of the old format 1.2 are left to rosbag). Streams the file:
+/// memory is one chunk. Throws CorruptMessageError
 /// naming the byte offset and the record.
 void checkBagStructure(const std::string& path);
 constexpr std::uint32_t kMaxChunkBytes = 256u << 20;

@@ -520,6 +520,7 @@ TEST(Simulate, OfflineRunnerMapsTheWorld) {
 
   // associations.csv alone (with its removal rows) gives the same scores again.
   std::ifstream assoc(offline.out_dir + "/associations.csv");
+  std::string line;
   std::getline(assoc, line);
   ASSERT_EQ(line, "scan,stamp,obs,range,bearing,diameter,decision,landmark_id,truth_id");
   AssociationScorer rescored;

@@ -9,6 +9,8 @@
 //   LaserScanData scan = laser.scan(composePose(true_pose, park.world.sensor.offset), &rng);
 #pragma once
 
+#include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -76,6 +78,10 @@ struct CarPark {
   LaserSpec laser;
 };
 CarPark beaconCarPark();
+
+/// The laser part of a world whose landmarks are extracted from scans: beaconCarPark() for
+/// "beacons", nothing for the point-observation worlds (runSimulation and `simulate` ask).
+std::optional<CarPark> laserWorld(const std::string& name);
 
 }  // namespace sim
 }  // namespace ekf_slam

@@ -200,6 +200,26 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
 
 // --- runSimulation -------------------------------------------------------------------------------
 
+std::vector<LandmarkId> truthByProximity(
+    const Eigen::Vector3d& true_sensor_pose, const std::vector<Observation>& observations,
+    const std::vector<std::pair<LandmarkId, Eigen::Vector2d>>& landmarks,
+    LandmarkId* next_clutter) {
+  std::vector<LandmarkId> truth;
+  truth.reserve(observations.size());
+  for (const Observation& o : observations) {
+    const Eigen::Vector2d p =
+        composePose(true_sensor_pose,
+                    Eigen::Vector3d(o.z(0) * std::cos(o.z(1)), o.z(0) * std::sin(o.z(1)), 0.0))
+            .head<2>();
+    LandmarkId id = (*next_clutter)--;
+    for (const auto& [landmark, position] : landmarks) {
+      if ((position - p).norm() < kLaserTruthDistance) id = landmark;
+    }
+    truth.push_back(id);
+  }
+  return truth;
+}
+
 RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std::uint64_t seed,
                            KnownAssociation* known, std::vector<double>* nees_per_scan,
                            std::vector<Eigen::Vector2d>* errors_per_scan) {
@@ -210,8 +230,11 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
   }
   std::optional<sim::LaserScanSimulator> laser;
   if (laser_world) laser.emplace(laser_world->laser, laser_world->scene);
-  sim::Random laser_noise(sim::Random::streamSeed(seed, 100));
+  sim::Random laser_noise(sim::Random::streamSeed(seed, sim::kLaserNoiseStream));
   LandmarkId clutter = sim::kClutterIdBase;
+  std::vector<std::pair<LandmarkId, Eigen::Vector2d>> beacons;
+  for (std::size_t k = 0; k < world.landmarks.size(); ++k)
+    beacons.emplace_back(static_cast<LandmarkId>(k), world.landmarks[k]);
 
   int kidnaps = 0;
   sim::Simulation simulation(world, seed);
@@ -237,18 +260,7 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
       const Eigen::Vector3d sensor = composePose(set.true_pose, world.sensor.offset);
       report =
           pipeline->processScan(set.stamp + sim::kStampOffset, laser->scan(sensor, &laser_noise));
-      for (const Observation& o : report.observations) {
-        const Eigen::Vector2d p =
-            composePose(sensor,
-                        Eigen::Vector3d(o.z(0) * std::cos(o.z(1)), o.z(0) * std::sin(o.z(1)), 0.0))
-                .head<2>();
-        LandmarkId id = clutter--;
-        for (std::size_t k = 0; k < world.landmarks.size(); ++k) {
-          if ((world.landmarks[k] - p).norm() < kLaserTruthDistance)
-            id = static_cast<LandmarkId>(k);
-        }
-        truth.push_back(id);
-      }
+      truth = truthByProximity(sensor, report.observations, beacons, &clutter);
     } else {
       const std::vector<LandmarkId> all = set.truthIds();
       if (known != nullptr) known->setTruth(all);  // the pipeline keeps every valid observation

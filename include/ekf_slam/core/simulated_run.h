@@ -16,6 +16,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -179,6 +180,13 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
                            std::vector<Eigen::Vector2d>* errors_per_scan = nullptr);
 /// See runSimulationOn [m].
 constexpr double kLaserTruthDistance = 0.5;
+/// The truth of features extracted from a scan (no truth ids of their own): for each observation
+/// (range, bearing in the sensor frame) the id of the landmark within kLaserTruthDistance of where
+/// it points from the true sensor pose, else a new clutter id (*next_clutter, counting down from
+/// sim::kClutterIdBase). runSimulationOn and ekf_slam_offline on a simulated scan bag use it.
+std::vector<LandmarkId> truthByProximity(
+    const Eigen::Vector3d& true_sensor_pose, const std::vector<Observation>& observations,
+    const std::vector<std::pair<LandmarkId, Eigen::Vector2d>>& landmarks, LandmarkId* next_clutter);
 
 /// Runs world + seed through a fresh SlamPipeline with `associator` (configured already; it is
 /// reset first) and scores it. Stamps carry sim::kStampOffset. `nees_per_scan` and

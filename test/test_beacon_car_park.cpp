@@ -26,51 +26,19 @@ struct CarParkRun {
   double map_error_raw_max = 0.0;  ///< the same without the alignment [m]
 };
 
-CarParkRun runCarPark(std::uint64_t seed) {
-  const sim::CarPark park = sim::beaconCarPark();
-  const sim::World& world = park.world;
+void runCarPark(std::uint64_t seed, CarParkRun* run) {
+  const sim::World world = sim::makeWorld("beacons");
   auto djnn = std::make_shared<DJNN>();
   djnn->configure(MapParameterSource(sim::associatorParametersFor(world, "DJNN")));
   SlamPipeline pipeline(sim::pipelineConfigFor(world), djnn);
   pipeline.setSensorOffset(world.sensor.offset);
-  BeaconExtractorParams beacon;
-  beacon.beacon_radius = 0.05;
-  beacon.sigma_range = 0.03;
-  pipeline.setFeatureExtractor(std::make_shared<BeaconExtractor>(beacon));
-  const sim::LaserScanSimulator laser(park.laser, park.scene);
-  sim::Random noise(sim::Random::streamSeed(seed, 100));
-
-  sim::Simulation simulation(world, seed);
-  RunScorer scorer;
-  std::vector<LandmarkId> truth;
-  LandmarkId clutter = sim::kClutterIdBase;
-  for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
-    if (e == sim::Simulation::Event::kOdometry) {
-      // As runSimulation feeds it (and the offline runner a simulated bag).
-      const sim::OdometrySample& o = simulation.odometry();
-      pipeline.addOdometry({o.stamp + sim::kStampOffset, o.twist, o.pose});
-      continue;
-    }
-    // The simulator's point observations are ignored: the laser sees the scene at the true pose.
-    const Eigen::Vector3d true_pose = simulation.observations().true_pose;
-    const Eigen::Vector3d sensor = composePose(true_pose, world.sensor.offset);
-    const ScanReport report = pipeline.processScan(
-        simulation.observations().stamp + sim::kStampOffset, laser.scan(sensor, &noise));
-    // Truth of an extracted beacon: the beacon within 0.5 m of where it truly points, else clutter.
-    truth.clear();
-    for (const Observation& o : report.observations) {
-      const Eigen::Vector3d p = composePose(
-          sensor, Eigen::Vector3d(o.z(0) * std::cos(o.z(1)), o.z(0) * std::sin(o.z(1)), 0));
-      LandmarkId id = clutter--;
-      for (std::size_t k = 0; k < world.landmarks.size(); ++k) {
-        if ((world.landmarks[k] - p.head<2>()).norm() < 0.5) id = static_cast<LandmarkId>(k);
-      }
-      truth.push_back(id);
-    }
-    scorer.addScan(report, truth, pipeline.pose(), pipeline.poseCovariance(), &true_pose);
-  }
-  CarParkRun run;
-  run.metrics = scorer.metrics(&pipeline);
+  const sim::ExtractorSetup extractor = sim::extractorFor(world);
+  ASSERT_EQ(extractor.name, "BeaconExtractor");
+  auto plugin = std::make_shared<BeaconExtractor>();
+  plugin->configure(MapParameterSource(extractor.parameters));
+  pipeline.setFeatureExtractor(plugin);
+  // evaluate's loop (runSimulation's), on a pipeline kept for the map check below.
+  run->metrics = runSimulationOn(&pipeline, world, seed);
   // Each map landmark against its nearest beacon, after the best rigid alignment of the map
   // onto the beacons (and before: the map frame is the world frame here, the filter starts at
   // the true start pose).
@@ -84,17 +52,16 @@ CarParkRun runCarPark(std::uint64_t seed) {
                                           });
     mapped.push_back(m);
     beacons.push_back(*nearest);
-    run.map_error_raw_max = std::max(run.map_error_raw_max, (m - *nearest).norm());
+    run->map_error_raw_max = std::max(run->map_error_raw_max, (m - *nearest).norm());
   }
   const RigidTransform2 t = alignRigid2D(mapped, beacons);
   double sum = 0.0;
   for (std::size_t k = 0; k < mapped.size(); ++k) {
     const double e = (t.apply(mapped[k]) - beacons[k]).norm();
     sum += e * e;
-    run.map_error_max = std::max(run.map_error_max, e);
+    run->map_error_max = std::max(run->map_error_max, e);
   }
-  run.map_error_rms = mapped.empty() ? 0.0 : std::sqrt(sum / mapped.size());
-  return run;
+  run->map_error_rms = mapped.empty() ? 0.0 : std::sqrt(sum / mapped.size());
 }
 
 }  // namespace
@@ -102,7 +69,8 @@ CarParkRun runCarPark(std::uint64_t seed) {
 TEST(BeaconCarPark, TwentySeeds) {
   double worst_map = 0.0, worst_rmse = 0.0, worst_accuracy = 1.0;
   for (std::uint64_t seed = 1; seed <= 20; ++seed) {
-    const CarParkRun r = runCarPark(seed);
+    CarParkRun r;
+    runCarPark(seed, &r);
     const RunMetrics& m = r.metrics;
     EXPECT_EQ(m.map.landmarks, 15u) << "seed " << seed;
     EXPECT_EQ(m.map.true_landmarks_mapped, 15u) << "seed " << seed;
@@ -124,6 +92,30 @@ TEST(BeaconCarPark, TwentySeeds) {
   }
   std::printf("worst of 20: map error (aligned RMS) %.3f m, pose RMSE %.3f m, accuracy %.4f\n",
               worst_map, worst_rmse, worst_accuracy);
+}
+
+// What `evaluate --world beacons` runs: runSimulation sets the extractor up from the world and
+// scores the same run as the loop above.
+TEST(BeaconCarPark, RunSimulationIsTheEvaluatedRun) {
+  const sim::World world = sim::makeWorld("beacons");
+  ASSERT_TRUE(sim::laserWorld("beacons").has_value());
+  EXPECT_FALSE(sim::laserWorld("tiny").has_value());
+  EXPECT_TRUE(sim::extractorFor(sim::makeWorld("tiny")).name.empty());
+  auto djnn = std::make_shared<DJNN>();
+  djnn->configure(MapParameterSource(sim::associatorParametersFor(world, "DJNN")));
+  const RunMetrics m = runSimulation(world, 3, sim::pipelineConfigFor(world), djnn);
+  CarParkRun r;
+  runCarPark(3, &r);
+  EXPECT_GT(m.scans, 500u);
+  EXPECT_EQ(m.scans, r.metrics.scans);
+  EXPECT_EQ(m.observations, r.metrics.observations);
+  EXPECT_EQ(m.counts.tp, r.metrics.counts.tp);
+  EXPECT_EQ(m.map.true_landmarks_mapped, 15u);
+  EXPECT_DOUBLE_EQ(m.pose_rmse_m, r.metrics.pose_rmse_m);
+  // The true associations cannot be handed over before the extraction: a clear error.
+  EXPECT_THROW(
+      runSimulation(world, 3, sim::pipelineConfigFor(world), std::make_shared<KnownAssociation>()),
+      std::invalid_argument);
 }
 
 TEST(LaserScanSimulator, BeaconIsBrightCarIsDull) {

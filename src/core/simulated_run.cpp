@@ -4,11 +4,15 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 
 #include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/feature_extraction/beacon_extractor.h"
 #include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/pose2d.h"
+#include "ekf_slam/core/simulation/laser_scan_simulator.h"
 #include "ekf_slam/core/trajectory_metrics.h"
 
 namespace ekf_slam {
@@ -67,6 +71,13 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
   // landmark outside it must not be counted as missed.
   return {{"sensor_range", text(coveringRange(world))},
           {"field_of_view", text(std::min(world.sensor.field_of_view, 2.0 * M_PI))}};
+}
+
+ExtractorSetup extractorFor(const World& world) {
+  if (!laserWorld(world.name)) return {};
+  // The car park's poles (radius 0.05 m) and its laser's range noise (LaserSpec::sigma_range
+  // 0.01 m, with margin for the beam's discrete angles).
+  return {"BeaconExtractor", {{"beacon_radius", "0.05"}, {"sigma_range", "0.03"}}};
 }
 
 }  // namespace sim
@@ -224,6 +235,81 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
 
 // --- runSimulation -------------------------------------------------------------------------------
 
+std::vector<LandmarkId> truthByProximity(
+    const Eigen::Vector3d& true_sensor_pose, const std::vector<Observation>& observations,
+    const std::vector<std::pair<LandmarkId, Eigen::Vector2d>>& landmarks,
+    LandmarkId* next_clutter) {
+  std::vector<LandmarkId> truth;
+  truth.reserve(observations.size());
+  for (const Observation& o : observations) {
+    const Eigen::Vector2d p =
+        composePose(true_sensor_pose,
+                    Eigen::Vector3d(o.z(0) * std::cos(o.z(1)), o.z(0) * std::sin(o.z(1)), 0.0))
+            .head<2>();
+    LandmarkId id = (*next_clutter)--;
+    for (const auto& [landmark, position] : landmarks) {
+      if ((position - p).norm() < kLaserTruthDistance) id = landmark;
+    }
+    truth.push_back(id);
+  }
+  return truth;
+}
+
+RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std::uint64_t seed,
+                           KnownAssociation* known, std::vector<double>* nees_per_scan,
+                           std::vector<Eigen::Vector2d>* errors_per_scan) {
+  const std::optional<sim::CarPark> laser_world = sim::laserWorld(world.name);
+  if (laser_world && known != nullptr) {
+    throw std::invalid_argument("the true associations need truth ids before association; world '" +
+                                world.name + "' extracts its features from scans");
+  }
+  std::optional<sim::LaserScanSimulator> laser;
+  if (laser_world) laser.emplace(laser_world->laser, laser_world->scene);
+  sim::Random laser_noise(sim::Random::streamSeed(seed, sim::kLaserNoiseStream));
+  LandmarkId clutter = sim::kClutterIdBase;
+  std::vector<std::pair<LandmarkId, Eigen::Vector2d>> beacons;
+  for (std::size_t k = 0; k < world.landmarks.size(); ++k)
+    beacons.emplace_back(static_cast<LandmarkId>(k), world.landmarks[k]);
+
+  int kidnaps = 0;
+  sim::Simulation simulation(world, seed);
+  RunScorer scorer;
+  scorer.setTrueMap({beacons.begin(), beacons.end()});
+  std::vector<LandmarkId> truth;
+  // Fed exactly as the offline runner feeds a simulated bag: odometry, then the set of the same
+  // stamp, with the bag's stamp offset.
+  for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
+    if (e == sim::Simulation::Event::kOdometry) {
+      const sim::OdometrySample& o = simulation.odometry();
+      pipeline->addOdometry({o.stamp + sim::kStampOffset, o.twist, o.pose});
+      continue;
+    }
+    const sim::ObservationSet& set = simulation.observations();
+    if (simulation.kidnapsApplied() > kidnaps) {
+      kidnaps = simulation.kidnapsApplied();
+      scorer.markKidnap();
+    }
+    truth.clear();
+    ScanReport report;
+    if (laser) {
+      // The simulator's point observations are ignored: the laser sees the scene.
+      const Eigen::Vector3d sensor = composePose(set.true_pose, world.sensor.offset);
+      report =
+          pipeline->processScan(set.stamp + sim::kStampOffset, laser->scan(sensor, &laser_noise));
+      truth = truthByProximity(sensor, report.observations, beacons, &clutter);
+    } else {
+      const std::vector<LandmarkId> all = set.truthIds();
+      if (known != nullptr) known->setTruth(all);  // the pipeline keeps every valid observation
+      report = pipeline->processObservations(set.stamp + sim::kStampOffset, set.toObservations());
+      for (const std::uint32_t i : report.input_index) truth.push_back(all[i]);
+    }
+    scorer.addScan(report, truth, pipeline->pose(), pipeline->poseCovariance(), &set.true_pose);
+  }
+  if (nees_per_scan != nullptr) *nees_per_scan = scorer.neesPerScan();
+  if (errors_per_scan != nullptr) *errors_per_scan = scorer.errorsPerScan();
+  return scorer.metrics(pipeline);
+}
+
 RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const PipelineConfig& config,
                          std::shared_ptr<DataAssociation> associator,
                          std::vector<double>* nees_per_scan,
@@ -235,43 +321,14 @@ RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const Pipe
   SlamPipeline pipeline(config, std::move(associator));
   pipeline.setSensorOffset(world.sensor.offset);
   pipeline.setRelocaliser(std::move(relocaliser));
-  int kidnaps = 0;
-  sim::Simulation simulation(world, seed);
-  RunScorer scorer;
-  std::unordered_map<LandmarkId, Eigen::Vector2d> true_map;
-  for (std::size_t i = 0; i < world.landmarks.size(); ++i)
-    true_map[static_cast<LandmarkId>(i)] = world.landmarks[i];
-  scorer.setTrueMap(std::move(true_map));
-  std::vector<LandmarkId> truth;
-  // Fed exactly as the offline runner feeds a simulated bag: odometry, then the set of the same
-  // stamp, with the bag's stamp offset.
-  for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
-    if (e == sim::Simulation::Event::kOdometry) {
-      const sim::OdometrySample& o = simulation.odometry();
-      OdometryInput in;
-      in.stamp = o.stamp + sim::kStampOffset;
-      in.twist = o.twist;
-      in.pose = o.pose;
-      pipeline.addOdometry(in);
-      continue;
-    }
-    const sim::ObservationSet& set = simulation.observations();
-    const std::vector<LandmarkId> all = set.truthIds();
-    if (known != nullptr) known->setTruth(all);  // the pipeline keeps every valid observation
-    if (simulation.kidnapsApplied() > kidnaps) {
-      kidnaps = simulation.kidnapsApplied();
-      scorer.markKidnap();
-    }
-    const ScanReport report =
-        pipeline.processObservations(set.stamp + sim::kStampOffset, set.toObservations());
-    truth.clear();
-    for (const std::uint32_t i : report.input_index) truth.push_back(all[i]);
-    scorer.addScan(report, truth, pipeline.pose(), pipeline.poseCovariance(), &set.true_pose);
+  const sim::ExtractorSetup extractor = sim::extractorFor(world);
+  if (extractor.name == "BeaconExtractor") {
+    auto beacons = std::make_shared<BeaconExtractor>();
+    beacons->configure(MapParameterSource(extractor.parameters));
+    pipeline.setFeatureExtractor(beacons);
   }
-  RunMetrics m = scorer.metrics(&pipeline);
+  RunMetrics m = runSimulationOn(&pipeline, world, seed, known, nees_per_scan, errors_per_scan);
   m.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (nees_per_scan != nullptr) *nees_per_scan = scorer.neesPerScan();
-  if (errors_per_scan != nullptr) *errors_per_scan = scorer.errorsPerScan();
   return m;
 }
 

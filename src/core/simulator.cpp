@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/simulation/laser_scan_simulator.h"
 
 namespace ekf_slam {
 namespace sim {
@@ -300,6 +301,7 @@ const std::vector<std::pair<std::string, Builder>>& registry() {
     r.emplace_back("djnn_strong", [] { return djnnWorld(50, "djnn_strong"); });
     r.emplace_back("hybrid", hybridWorld);
     r.emplace_back("aekf", aekfWorld);
+    r.emplace_back("beacons", [] { return beaconCarPark().world; });  // laser: laserWorld()
     for (int k = 1; k <= 10; ++k)
       r.emplace_back("rrw_noise_" + std::to_string(k), [k] { return rrwNoise(k); });
     for (int k = 1; k <= 10; ++k)

@@ -487,7 +487,14 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                           : std::string();
 
   // Ground-truth scoring (simulated bags): every observation must carry its truth id.
-  const bool score = bag.has_truth_ids && bag.observations_without_truth == 0 && bag.scans.empty();
+  // A simulated scan bag (simulate --world beacons) has no truth ids: its extracted features get
+  // the /true_map landmark they point at from the true sensor pose (truthByProximity, as evaluate
+  // scores the same run).
+  const bool score_scans = !bag.scans.empty() && bag.observation_sets.empty() &&
+                           !bag.ground_truth.empty() && !bag.true_map.empty();
+  LandmarkId next_clutter = sim::kClutterIdBase;
+  const bool score = score_scans || (bag.has_truth_ids && bag.observations_without_truth == 0 &&
+                                     bag.scans.empty());
   if (bag.has_truth_ids && !score) {
     log << "warning: the bag has truth ids, but " << bag.observations_without_truth
         << " observations lack one" << (bag.scans.empty() ? "" : " and it has laser scans")
@@ -543,6 +550,13 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     poses.push_back({r.stamp, x, P.diagonal(), filter.correction(),
                      filter.correctionCovariance().diagonal().cwiseSqrt()});
     laser_track.push_back({r.stamp, pipeline.observationModel().sensorPose(x).head<2>()});
+    Eigen::Vector3d true_pose;
+    const bool have_pose = score && truePoseAt(bag.ground_truth, r.stamp, &true_pose);
+    std::vector<LandmarkId> scan_truth;
+    if (score_scans && have_pose) {
+      scan_truth = truthByProximity(pipeline.observationModel().sensorPose(true_pose),
+                                    r.observations, bag.true_map, &next_clutter);
+    }
     truth.clear();
     for (std::size_t i = 0; i < r.observations.size(); ++i) {
       const Observation& ob = r.observations[i];
@@ -550,8 +564,10 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
           i < r.association.decision.size() ? r.association.decision[i] : Decision::kRejected;
       const LandmarkId id =
           (d == Decision::kPaired || d == Decision::kNew) ? r.association.landmark[i] : kNoLandmark;
-      const std::int64_t truth_id =
-          input && i < r.input_index.size() ? input->truth_ids[r.input_index[i]] : kNoTruthId;
+      const std::int64_t truth_id = input && i < r.input_index.size()
+                                        ? input->truth_ids[r.input_index[i]]
+                                    : i < scan_truth.size() ? scan_truth[i]
+                                                            : kNoTruthId;
       truth.push_back(truth_id);
       rows.push_back({r.scan, static_cast<std::uint32_t>(i), r.stamp, ob.z.x(), ob.z.y(),
                       ob.descriptor, d, id, truth_id});
@@ -560,11 +576,9 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     for (const LandmarkId id : r.removed)
       rows.push_back(
           {r.scan, 0, r.stamp, 0.0, 0.0, 0.0, Decision::kRejected, id, kNoTruthId, true});
-    if (score) {
-      Eigen::Vector3d true_pose;
-      const bool have_pose = truePoseAt(bag.ground_truth, r.stamp, &true_pose);
+    // A scan without a true pose has no truth for its features either.
+    if (score && (!score_scans || have_pose))
       scorer->addScan(r, truth, x, P, have_pose ? &true_pose : nullptr);
-    }
     if (o.on_scan) o.on_scan(r, pipeline);
     if (o.dump_problem_scan && r.scan == *o.dump_problem_scan) {
       capturing->disarm();
@@ -700,16 +714,17 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     }
     std::ofstream assoc = openOutput(o.out_dir + "/associations.csv");
     assoc << "scan,stamp,obs,range,bearing,diameter,decision,landmark_id"
-          << (bag.has_truth_ids ? ",truth_id" : "") << "\n";
+          << (bag.has_truth_ids || score_scans ? ",truth_id" : "") << "\n";
     for (const AssociationRow& a : rows) {
       assoc << a.scan << ',' << stampText(a.stamp) << ',';
       if (a.removal) {
-        assoc << ",,,,removed," << a.landmark << (bag.has_truth_ids ? "," : "") << '\n';
+        assoc << ",,,,removed," << a.landmark << (bag.has_truth_ids || score_scans ? "," : "")
+              << '\n';
         continue;
       }
       assoc << a.obs << ',' << a.range << ',' << a.bearing << ',' << a.diameter << ','
             << toString(a.decision) << ',' << a.landmark;
-      if (bag.has_truth_ids) assoc << ',' << a.truth_id;
+      if (bag.has_truth_ids || score_scans) assoc << ',' << a.truth_id;
       assoc << '\n';
     }
   }

@@ -5,6 +5,7 @@
 #include <ros/message_traits.h>
 #include <rosbag/bag.h>
 #include <rosbag/exceptions.h>
+#include <sensor_msgs/LaserScan.h>
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -28,7 +29,9 @@
 #include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/LandmarkObservationArray.h"
 #include "ekf_slam/core/motion_models.h"
+#include "ekf_slam/core/pose2d.h"
 #include "ekf_slam/core/simulated_run.h"
+#include "ekf_slam/core/simulation/laser_scan_simulator.h"
 #include "ekf_slam/core/simulator.h"
 #include "ekf_slam/ros/conversions.h"
 #include "ekf_slam/ros/latched_topic.h"
@@ -46,6 +49,22 @@ constexpr double kPlanarVariance = 1e-6;
 const char* const kAssociators[] = {"DJNN", "NN", "JCBB", "NNJCBB", "Hungarian", "FGCBB", "GCBB"};
 
 ros::Time bagStamp(double sim_stamp) { return ros::Time(sim_stamp + sim::kStampOffset); }
+
+sensor_msgs::LaserScan toScanMsg(const LaserScanData& d, const ros::Time& stamp,
+                                 std::uint32_t seq) {
+  sensor_msgs::LaserScan m;
+  m.header.seq = seq;
+  m.header.stamp = stamp;
+  m.header.frame_id = "laser";
+  m.angle_min = static_cast<float>(d.angle_min);
+  m.angle_increment = static_cast<float>(d.angle_increment);
+  m.angle_max = static_cast<float>(d.angle_min + d.angle_increment * (d.ranges.size() - 1));
+  m.range_min = static_cast<float>(d.range_min);
+  m.range_max = static_cast<float>(d.range_max);
+  m.ranges = d.ranges;
+  m.intensities = d.intensities;
+  return m;
+}
 
 // The twist covariance the filter assumes for this sample (TwistModel::step: the standard
 // deviations grow with |v|), so a consumer reading the covariance gets what the YAML configures.
@@ -181,10 +200,13 @@ std::string defaultParamsPath(const std::string& bag_path) {
 std::string simulationParamsYaml(
     const std::string& world_name, const std::map<std::string, std::string>& pipeline,
     const std::map<std::string, std::map<std::string, std::string>>& associators,
-    const std::vector<std::string>& header_comment) {
+    const std::vector<std::string>& header_comment, const sim::ExtractorSetup& extractor) {
   std::ostringstream y;
   for (const std::string& line : header_comment) y << "# " << line << "\n";
   y << "\nassociator: ekf_slam/DJNN\n";
+  if (!extractor.name.empty()) {
+    y << "extractor: ekf_slam/" << extractor.name << "  # /scan: features from the laser\n";
+  }
   y << "\n# --- pipeline (docs/parameters.md): sim::pipelineParametersFor(" << world_name
     << ") ---\n";
   for (const auto& [name, value] : pipeline) y << name << ": " << yamlScalar(value) << "\n";
@@ -200,6 +222,13 @@ std::string simulationParamsYaml(
     }
     y << a << ":\n";
     for (const auto& [name, value] : it->second)
+      y << "  " << name << ": " << yamlScalar(value) << "\n";
+  }
+  if (!extractor.name.empty()) {
+    y << "\n# --- feature extractor (docs/feature_extraction.md): sim::extractorFor(" << world_name
+      << ") ---\n"
+      << extractor.name << ":\n";
+    for (const auto& [name, value] : extractor.parameters)
       y << "  " << name << ": " << yamlScalar(value) << "\n";
   }
   return y.str();
@@ -242,6 +271,13 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
   const TwistModel odom_model(twist_noise);
   Eigen::Matrix3d odom_cov = Eigen::Matrix3d::Zero();
   std::optional<sim::OdometrySample> previous;
+
+  // A laser world's scans, ray-cast at the true sensor pose with runSimulation's noise stream,
+  // replace the point observations.
+  const std::optional<sim::CarPark> laser_world = sim::laserWorld(world.name);
+  std::optional<sim::LaserScanSimulator> laser;
+  if (laser_world) laser.emplace(laser_world->laser, laser_world->scene);
+  sim::Random laser_noise(sim::Random::streamSeed(seed, sim::kLaserNoiseStream));
 
   std::uint32_t odom_seq = 0, obs_seq = 0;
   try {
@@ -322,6 +358,14 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
 
       const sim::ObservationSet& set = simulation.observations();
       const ros::Time t = bagStamp(set.stamp);
+      if (laser) {
+        const Eigen::Vector3d sensor = composePose(set.true_pose, world.sensor.offset);
+        bag.write("/scan", t, toScanMsg(laser->scan(sensor, &laser_noise), t, obs_seq));
+        ++s.scans;
+        ++obs_seq;
+        s.last_stamp = std::max(s.last_stamp, t.toSec());
+        continue;
+      }
       LandmarkObservationArray msg;
       msg.header.seq = obs_seq;
       msg.header.stamp = t;
@@ -380,7 +424,7 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
     throw;
   }
   s.odometry = odom_seq;
-  s.observation_sets = obs_seq;
+  s.observation_sets = obs_seq - s.scans;
   s.duration_s = s.last_stamp - s.first_stamp;
   if (s.kidnaps > 0) log << "note: " << s.kidnaps << " kidnap event(s) in the run\n";
 
@@ -405,7 +449,8 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
         "  rosrun ekf_slam ekf_slam_offline --bag BAG --params THIS_FILE --out DIR",
         "  roslaunch ekf_slam simulation.launch bag:=BAG params:=THIS_FILE"};
     std::ofstream out(s.params_path);
-    out << simulationParamsYaml(world.name, sim::pipelineParametersFor(world), assoc, comment);
+    out << simulationParamsYaml(world.name, sim::pipelineParametersFor(world), assoc, comment,
+                                sim::extractorFor(world));
     out.close();
     if (!out) throw std::runtime_error(s.params_path + ": cannot write the parameter file");
   }
@@ -421,7 +466,8 @@ void printSimulateUsage(std::ostream& out, const std::string& program) {
       << "       " << program << " --list | --help\n"
       << "\n"
       << "Simulates a world (docs/simulation.md) and writes it as a bag the ekf_slam node and\n"
-      << "ekf_slam_offline read: /odom, /observations (with truth ids), /ground_truth, /true_map,\n"
+      << "ekf_slam_offline read: /odom, /observations (with truth ids; /scan with intensities\n"
+      << "for the beacons world), /ground_truth, /true_map,\n"
       << "/movers, /tf_static, and rviz markers /true_map_markers, /movers_markers. Stamps are\n"
       << "the simulation's plus 1 s. Also writes the matching parameter YAML.\n"
       << "\n"
@@ -568,7 +614,9 @@ int simulateMain(int argc, char** argv) {
               << "  " << s.odometry << " odometry messages (/odom, /ground_truth), "
               << s.observation_sets << " observation sets, " << s.observations << " observations ("
               << s.landmark_observations << " of landmarks, " << s.mover_observations
-              << " of movers, " << s.clutter_observations << " clutter)\n"
+              << " of movers, " << s.clutter_observations << " clutter)"
+              << (s.scans > 0 ? ", " + std::to_string(s.scans) + " laser scans (/scan)" : "")
+              << "\n"
               << "  " << s.landmarks << " landmarks, " << s.movers
               << (s.movers == 1 ? " mover" : " movers")
               << (s.kidnaps > 0 ? ", " + std::to_string(s.kidnaps) + " kidnap(s)" : "") << "\n"

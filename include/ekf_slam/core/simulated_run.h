@@ -50,6 +50,14 @@ PipelineConfig pipelineConfigFor(const World& world);
 std::map<std::string, std::string> associatorParametersFor(const World& world,
                                                            const std::string& short_name);
 
+/// The feature extractor a laser world's scans need (sim::laserWorld): its plugin's short name
+/// and parameters (docs/feature_extraction.md); an empty name for the point-observation worlds.
+struct ExtractorSetup {
+  std::string name;
+  std::map<std::string, std::string> parameters;
+};
+ExtractorSetup extractorFor(const World& world);
+
 }  // namespace sim
 
 /// What one run scored (one row of evaluate's results.csv; the truth part of metrics.json).
@@ -177,11 +185,32 @@ class RunScorer {
   std::uint64_t after_n_ = 0, relocalisations_ = 0, wrong_relocalisations_ = 0;
 };
 
+/// runSimulation's loop on a pipeline the caller set up (associator, relocaliser, sensor offset,
+/// feature extractor): feeds it world + seed and scores it. A laser world's scans (sim::laserWorld)
+/// are ray-cast at the true sensor pose and go through the pipeline's extractor; an extracted
+/// feature's truth is the landmark within kLaserTruthDistance of where it points, else clutter.
+/// `known`: the pipeline's associator when it is KnownAssociation (point worlds only: a laser
+/// world's truth is known after the extraction, so it throws std::invalid_argument).
+RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std::uint64_t seed,
+                           KnownAssociation* known = nullptr,
+                           std::vector<double>* nees_per_scan = nullptr,
+                           std::vector<Eigen::Vector2d>* errors_per_scan = nullptr);
+/// See runSimulationOn [m].
+constexpr double kLaserTruthDistance = 0.5;
+/// The truth of features extracted from a scan (no truth ids of their own): for each observation
+/// (range, bearing in the sensor frame) the id of the landmark within kLaserTruthDistance of where
+/// it points from the true sensor pose, else a new clutter id (*next_clutter, counting down from
+/// sim::kClutterIdBase). runSimulationOn and ekf_slam_offline on a simulated scan bag use it.
+std::vector<LandmarkId> truthByProximity(
+    const Eigen::Vector3d& true_sensor_pose, const std::vector<Observation>& observations,
+    const std::vector<std::pair<LandmarkId, Eigen::Vector2d>>& landmarks, LandmarkId* next_clutter);
+
 /// Runs world + seed through a fresh SlamPipeline with `associator` (configured already; it is
 /// reset first) and scores it. Stamps carry sim::kStampOffset. `nees_per_scan` and
 /// `errors_per_scan`, when given, receive RunScorer::neesPerScan() and errorsPerScan().
 /// `relocaliser` (configured; may be null) switches lost-robot recovery on; the world's kidnaps
-/// are marked for the recovery metrics. Throws what SlamPipeline and Simulation throw.
+/// are marked for the recovery metrics. A laser world gets its extractor (sim::extractorFor).
+/// Throws what SlamPipeline and Simulation throw.
 RunMetrics runSimulation(const sim::World& world, std::uint64_t seed, const PipelineConfig& config,
                          std::shared_ptr<DataAssociation> associator,
                          std::vector<double>* nees_per_scan = nullptr,

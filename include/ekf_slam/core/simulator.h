@@ -157,7 +157,8 @@ struct World {
   int controlStepsPerObservation() const;
 };
 
-/// Names accepted by makeWorld(): tiny, djnn_weak, djnn_strong, hybrid, aekf, rrw_noise_1..10,
+/// Names accepted by makeWorld(): tiny, djnn_weak, djnn_strong, hybrid, aekf, beacons (scans:
+/// sim::laserWorld), rrw_noise_1..10,
 /// rrw_kidnap_1..10, rrw_occlusion_2, 4, ..., 20.
 std::vector<std::string> worldNames();
 /// Builds a world by name; throws std::invalid_argument listing the names on an unknown one.

@@ -8,6 +8,8 @@
 // Topics (stamps = simulation stamp + sim::kStampOffset, header.seq = index on the topic):
 //   /odom              nav_msgs/Odometry     odom -> base_link, noisy odometry, per control step
 //   /observations      ekf_slam/LandmarkObservationArray  frame laser, with truth ids
+//   /scan              sensor_msgs/LaserScan  frame laser, with intensities: laser worlds
+//                      (sim::laserWorld, e.g. beacons) instead of /observations
 //   /ground_truth      nav_msgs/Odometry     map -> base_link, true pose and twist
 //   /true_map          ekf_slam/LandmarkArray  frame map, the static landmarks, latched
 //   /movers            ekf_slam/LandmarkArray  frame map, true movers per observation set (if any)
@@ -23,6 +25,8 @@
 #include <ostream>
 #include <string>
 #include <vector>
+
+#include "ekf_slam/core/simulated_run.h"
 
 namespace ekf_slam {
 
@@ -48,6 +52,7 @@ struct SimulationBagSummary {
   double duration_s = 0.0;                ///< simulated time covered
   std::size_t odometry = 0;               ///< /odom messages (= /ground_truth messages)
   std::size_t observation_sets = 0;       ///< /observations messages
+  std::size_t scans = 0;                  ///< /scan messages (laser worlds: instead of those)
   std::size_t observations = 0;           ///< returns in them ...
   std::size_t landmark_observations = 0;  ///< ... of static landmarks
   std::size_t mover_observations = 0;     ///< ... of movers
@@ -63,10 +68,11 @@ std::string defaultParamsPath(const std::string& bag_path);
 /// The parameter file for a world: pipeline parameters (sim::pipelineParametersFor) at the top
 /// level, each associator's world-dependent ones (sim::associatorParametersFor) in its section,
 /// DJNN's always, in the layout of config/simulation.yaml. `header_comment` lines lead the file.
+/// A laser world's `extractor` (sim::extractorFor) adds `extractor:` and its section.
 std::string simulationParamsYaml(
     const std::string& world_name, const std::map<std::string, std::string>& pipeline,
     const std::map<std::string, std::map<std::string, std::string>>& associators,
-    const std::vector<std::string>& header_comment);
+    const std::vector<std::string>& header_comment, const sim::ExtractorSetup& extractor = {});
 
 /// Simulates and writes the bag (and the YAML unless !write_params). Throws
 /// std::invalid_argument for an unknown world or invalid overrides and std::runtime_error when a

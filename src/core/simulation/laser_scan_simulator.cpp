@@ -138,5 +138,10 @@ CarPark beaconCarPark() {
   return park;
 }
 
+std::optional<CarPark> laserWorld(const std::string& name) {
+  if (name == "beacons") return beaconCarPark();
+  return std::nullopt;
+}
+
 }  // namespace sim
 }  // namespace ekf_slam

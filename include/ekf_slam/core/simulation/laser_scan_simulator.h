@@ -9,6 +9,9 @@
 //   LaserScanData scan = laser.scan(composePose(true_pose, park.world.sensor.offset), &rng);
 #pragma once
 
+#include <cstdint>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -76,6 +79,13 @@ struct CarPark {
   LaserSpec laser;
 };
 CarPark beaconCarPark();
+
+/// The laser part of a world whose landmarks are extracted from scans: beaconCarPark() for
+/// "beacons", nothing for the point-observation worlds (runSimulation and `simulate` ask).
+std::optional<CarPark> laserWorld(const std::string& name);
+/// Random::streamSeed(seed, this): the laser's noise in a run of a laser world, so runSimulation
+/// and the bag `simulate` writes see the same scans.
+constexpr std::uint64_t kLaserNoiseStream = 100;
 
 }  // namespace sim
 }  // namespace ekf_slam

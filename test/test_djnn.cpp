@@ -607,10 +607,10 @@ TEST(DJNN, ParametersAreValidatedAndNamed) {
   EXPECT_TRUE(fails({{"bias_window", "0.5"}}, "bias_window"));
   EXPECT_TRUE(fails({{"bias_min_pairings", "0"}}, "bias_min_pairings"));
   const DJNN d = makeDjnn({{"sensor_range", "25"}, {"range_margin", "2"}});
-  EXPECT_EQ(d.params().sensor_range, 25.0);
+  EXPECT_EQ(d.params().sensor.max_range, 25.0);
   EXPECT_EQ(d.params().range_margin, 2.0);
   EXPECT_EQ(d.params().admit_evidence, 2);
-  EXPECT_NEAR(d.params().field_of_view, M_PI, 1e-12);
+  EXPECT_NEAR(d.params().sensor.field_of_view, M_PI, 1e-12);
 }
 
 TEST(DJNN, DefaultsAreTheDocumentedOnes) {
@@ -625,6 +625,12 @@ TEST(DJNN, DefaultsAreTheDocumentedOnes) {
   EXPECT_EQ(d.params().bias_probability, 0.999);
   EXPECT_EQ(d.params().bias_window, 5.0);
   EXPECT_EQ(d.params().bias_min_pairings, 3);
+  // The sensor model: the paper's half disc of 30 m, every landmark in it seen, no clutter.
+  EXPECT_EQ(d.params().sensor.max_range, 30.0);
+  EXPECT_EQ(d.params().sensor.min_range, 0.0);
+  EXPECT_TRUE(d.params().sensor.polygon.empty());
+  EXPECT_EQ(d.params().sensor.detection_probability, 1.0);
+  EXPECT_EQ(d.params().sensor.clutter_density, 0.0);
 }
 
 // --- dynamic filtering: static test of tentative features, bias test of landmarks -------------

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "association_fixtures.h"
+#include "djnn_fixtures.h"
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/association/djnn.h"
 #include "ekf_slam/core/association/nn.h"
@@ -18,22 +19,9 @@ namespace ekf_slam {
 namespace {
 
 using assoc_test::diag2;
+using assoc_test::makeDjnn;
 using assoc_test::poseCov;
 using assoc_test::Scene;
-
-// The paper's settings (0.95 gates, admission when seen twice, no static / bias tests): the
-// hand-made problems below are worked out for them. `params` override them.
-DJNN makeDjnn(const std::map<std::string, std::string>& params = {}) {
-  std::map<std::string, std::string> p = {{"individual_probability", "0.95"},
-                                          {"ambiguity_probability", "0.95"},
-                                          {"admit_evidence", "2"},
-                                          {"static_test", "false"},
-                                          {"bias_test", "false"}};
-  for (const auto& kv : params) p[kv.first] = kv.second;
-  DJNN d;
-  d.configure(MapParameterSource(p));
-  return d;
-}
 
 Eigen::Vector2d polar(double r, double bearing_deg) {
   return Eigen::Vector2d(r * std::cos(deg2rad(bearing_deg)), r * std::sin(deg2rad(bearing_deg)));

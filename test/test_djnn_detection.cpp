@@ -9,25 +9,14 @@
 #include <gtest/gtest.h>
 
 #include "association_fixtures.h"
+#include "djnn_fixtures.h"
 #include "ekf_slam/core/association/djnn.h"
 
 namespace ekf_slam {
 namespace {
 
+using assoc_test::makeDjnn;
 using assoc_test::Scene;
-
-// The paper's settings (as test_djnn.cpp's makeDjnn) plus overrides.
-DJNN makeDjnn(const std::map<std::string, std::string>& params = {}) {
-  std::map<std::string, std::string> p = {{"individual_probability", "0.95"},
-                                          {"ambiguity_probability", "0.95"},
-                                          {"admit_evidence", "2"},
-                                          {"static_test", "false"},
-                                          {"bias_test", "false"}};
-  for (const auto& kv : params) p[kv.first] = kv.second;
-  DJNN d;
-  d.configure(MapParameterSource(p));
-  return d;
-}
 
 void clearScan(Scene* s) {
   s->observations.clear();

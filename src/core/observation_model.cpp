@@ -7,6 +7,22 @@
 
 namespace ekf_slam {
 
+namespace {
+
+// The sensor's lever arm (lx, ly) in the world frame and the cos / sin of its world yaw.
+struct SensorFrame {
+  double lx, ly, cs, ss;
+};
+
+SensorFrame sensorFrame(const Eigen::Vector3d& xv, const Eigen::Vector3d& offset) {
+  const double c = std::cos(xv(2));
+  const double s = std::sin(xv(2));
+  const double ys = xv(2) + offset(2);
+  return {c * offset(0) - s * offset(1), s * offset(0) + c * offset(1), std::cos(ys), std::sin(ys)};
+}
+
+}  // namespace
+
 Eigen::Vector3d RangeBearingModel::sensorPose(const Eigen::Vector3d& xv) const {
   const double c = std::cos(xv(2));
   const double s = std::sin(xv(2));
@@ -65,13 +81,8 @@ Eigen::Vector2d RangeBearingModel::predict(const Eigen::Vector3d& xv, const Eige
                                            MeasurementKind kind, Matrix23d* H_pose,
                                            Eigen::Matrix2d* H_landmark) const {
   if (kind == MeasurementKind::kRangeBearing) return predict(xv, m, H_pose, H_landmark);
-  const double c = std::cos(xv(2));
-  const double s = std::sin(xv(2));
-  const double lx = c * offset_(0) - s * offset_(1);
-  const double ly = s * offset_(0) + c * offset_(1);
-  const double ys = xv(2) + offset_(2);
-  const double cs = std::cos(ys);
-  const double ss = std::sin(ys);
+  const SensorFrame f = sensorFrame(xv, offset_);
+  const double lx = f.lx, ly = f.ly, cs = f.cs, ss = f.ss;
   const double dx = m(0) - (xv(0) + lx);
   const double dy = m(1) - (xv(1) + ly);
   const Eigen::Vector2d z(cs * dx + ss * dy, -ss * dx + cs * dy);
@@ -87,13 +98,8 @@ Eigen::Vector2d RangeBearingModel::inverse(const Eigen::Vector3d& xv, const Eige
                                            MeasurementKind kind, Matrix23d* G_pose,
                                            Eigen::Matrix2d* G_obs) const {
   if (kind == MeasurementKind::kRangeBearing) return inverse(xv, z, G_pose, G_obs);
-  const double c = std::cos(xv(2));
-  const double s = std::sin(xv(2));
-  const double lx = c * offset_(0) - s * offset_(1);
-  const double ly = s * offset_(0) + c * offset_(1);
-  const double ys = xv(2) + offset_(2);
-  const double cs = std::cos(ys);
-  const double ss = std::sin(ys);
+  const SensorFrame f = sensorFrame(xv, offset_);
+  const double lx = f.lx, ly = f.ly, cs = f.cs, ss = f.ss;
   const double wx = cs * z(0) - ss * z(1);  // z rotated into the world frame
   const double wy = ss * z(0) + cs * z(1);
   if (G_pose) *G_pose << 1.0, 0.0, -ly - wy, 0.0, 1.0, lx + wx;

@@ -155,6 +155,31 @@ TEST(Conversions, ObservationCovarianceAndTruth) {
   EXPECT_FALSE(back.has_truth_id);
 }
 
+// Cartesian observations: (x, y) and the covariance in (x, y); an unknown model becomes a
+// non-finite observation (rejected and counted by the pipeline).
+TEST(Conversions, CartesianObservations) {
+  LandmarkObservationArray msg;
+  msg.observations.resize(2);
+  msg.observations[0].model = LandmarkObservation::CARTESIAN;
+  msg.observations[0].x = 2.0;
+  msg.observations[0].y = -0.5;
+  msg.observations[0].covariance = {0.01, 0.002, 0.002, 0.02};
+  msg.observations[1].model = 7;
+  const std::vector<Observation> obs = toObservations(msg);
+  ASSERT_EQ(obs.size(), 2u);
+  EXPECT_EQ(obs[0].kind, MeasurementKind::kCartesian);
+  EXPECT_DOUBLE_EQ(obs[0].z.x(), 2.0);
+  EXPECT_DOUBLE_EQ(obs[0].z.y(), -0.5);
+  EXPECT_DOUBLE_EQ(obs[0].R(0, 1), 0.002);
+  EXPECT_FALSE(obs[1].z.allFinite());
+  const LandmarkObservation back = toObservationMsg(obs[0]);
+  EXPECT_EQ(back.model, LandmarkObservation::CARTESIAN);
+  EXPECT_DOUBLE_EQ(back.x, 2.0);
+  EXPECT_DOUBLE_EQ(back.y, -0.5);
+  EXPECT_NEAR(back.range, std::hypot(2.0, 0.5), 1e-12);
+  EXPECT_EQ(toObservationMsg(Observation()).model, LandmarkObservation::RANGE_BEARING);
+}
+
 TEST(Conversions, AssociationStats) {
   ScanReport report;
   report.scan = 41;

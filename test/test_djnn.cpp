@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "association_fixtures.h"
+#include "djnn_fixtures.h"
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/association/djnn.h"
 #include "ekf_slam/core/association/nn.h"
@@ -18,22 +19,9 @@ namespace ekf_slam {
 namespace {
 
 using assoc_test::diag2;
+using assoc_test::makeDjnn;
 using assoc_test::poseCov;
 using assoc_test::Scene;
-
-// The paper's settings (0.95 gates, admission when seen twice, no static / bias tests): the
-// hand-made problems below are worked out for them. `params` override them.
-DJNN makeDjnn(const std::map<std::string, std::string>& params = {}) {
-  std::map<std::string, std::string> p = {{"individual_probability", "0.95"},
-                                          {"ambiguity_probability", "0.95"},
-                                          {"admit_evidence", "2"},
-                                          {"static_test", "false"},
-                                          {"bias_test", "false"}};
-  for (const auto& kv : params) p[kv.first] = kv.second;
-  DJNN d;
-  d.configure(MapParameterSource(p));
-  return d;
-}
 
 Eigen::Vector2d polar(double r, double bearing_deg) {
   return Eigen::Vector2d(r * std::cos(deg2rad(bearing_deg)), r * std::sin(deg2rad(bearing_deg)));
@@ -607,10 +595,10 @@ TEST(DJNN, ParametersAreValidatedAndNamed) {
   EXPECT_TRUE(fails({{"bias_window", "0.5"}}, "bias_window"));
   EXPECT_TRUE(fails({{"bias_min_pairings", "0"}}, "bias_min_pairings"));
   const DJNN d = makeDjnn({{"sensor_range", "25"}, {"range_margin", "2"}});
-  EXPECT_EQ(d.params().sensor_range, 25.0);
+  EXPECT_EQ(d.params().sensor.max_range, 25.0);
   EXPECT_EQ(d.params().range_margin, 2.0);
   EXPECT_EQ(d.params().admit_evidence, 2);
-  EXPECT_NEAR(d.params().field_of_view, M_PI, 1e-12);
+  EXPECT_NEAR(d.params().sensor.field_of_view, M_PI, 1e-12);
 }
 
 TEST(DJNN, DefaultsAreTheDocumentedOnes) {
@@ -625,6 +613,12 @@ TEST(DJNN, DefaultsAreTheDocumentedOnes) {
   EXPECT_EQ(d.params().bias_probability, 0.999);
   EXPECT_EQ(d.params().bias_window, 5.0);
   EXPECT_EQ(d.params().bias_min_pairings, 3);
+  // The sensor model: the paper's half disc of 30 m, every landmark in it seen, no clutter.
+  EXPECT_EQ(d.params().sensor.max_range, 30.0);
+  EXPECT_EQ(d.params().sensor.min_range, 0.0);
+  EXPECT_TRUE(d.params().sensor.polygon.empty());
+  EXPECT_EQ(d.params().sensor.detection_probability, 1.0);
+  EXPECT_EQ(d.params().sensor.clutter_density, 0.0);
 }
 
 // --- dynamic filtering: static test of tentative features, bias test of landmarks -------------

@@ -204,6 +204,35 @@ TEST(TwistModel, ProcessNoise) {
   EXPECT_NEAR(Q(2, 2), 0.2 * 0.2 * sw * sw + 0.002, 1e-15);
 }
 
+// process_noise per_second: the pose covariance after one second of steps does not depend on the
+// step rate (per_message: it shrinks with the rate); the yaw variance is sigma_w^2 * 1 s.
+TEST(TwistModel, ProcessNoisePerSecondIsRateIndependent) {
+  auto afterOneSecond = [](bool per_second, int rate) {
+    TwistParams p;
+    p.per_second = per_second;
+    const TwistModel model(p);
+    Eigen::Vector3d x(0, 0, 0);
+    Eigen::Matrix3d P = Eigen::Matrix3d::Zero();
+    const Eigen::Vector2d u(1.5, 0.2);
+    for (int k = 0; k < rate; ++k) {
+      const MotionStep s = model.step(x, u, 1.0 / rate);
+      P = s.F * P * s.F.transpose() + s.Q;
+      x = s.pose;
+    }
+    return P;
+  };
+  const double sw = 0.02 + 0.01 * 1.5;
+  const Eigen::Matrix3d slow = afterOneSecond(true, 10), fast = afterOneSecond(true, 100);
+  EXPECT_NEAR(slow(2, 2), sw * sw, 1e-12);
+  EXPECT_NEAR(fast(2, 2), sw * sw, 1e-12);
+  EXPECT_LT((slow - fast).norm(), 0.02 * slow.norm());  // same up to the discretisation
+  EXPECT_NEAR(afterOneSecond(false, 10)(2, 2), 10 * afterOneSecond(false, 100)(2, 2), 1e-12);
+  // dt = 0: no noise, not NaN.
+  TwistParams p;
+  p.per_second = true;
+  EXPECT_TRUE(TwistModel(p).step(Eigen::Vector3d::Zero(), Eigen::Vector2d(1, 0), 0.0).Q.isZero());
+}
+
 // --- Pose delta --------------------------------------------------------------------------------
 
 TEST(PoseDeltaModel, ComposeAndBetween) {

@@ -1,4 +1,5 @@
-// Range-bearing observation model: values, Jacobians (vs central differences), inverse, wrap.
+// Observation models (range-bearing and Cartesian): values, Jacobians (vs central differences),
+// inverse, wrap.
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -157,6 +158,78 @@ TEST(RangeBearingModel, RoundTrips) {
     const Eigen::Vector2d m(4, -6);
     EXPECT_LT((model.inverse(xv, model.predict(xv, m)) - m).norm(), 1e-10);
   }
+}
+
+// --- Cartesian (x, y) in the sensor frame ------------------------------------------------------
+
+constexpr MeasurementKind kXY = MeasurementKind::kCartesian;
+
+TEST(CartesianModel, PredictHandComputedWithOffset) {
+  // Vehicle at (1, 2) facing +y; sensor 0.5 m ahead (world (1, 2.5)), turned 90 deg left (facing
+  // -x). A landmark at (-2, 3.5) is 3 m ahead of the sensor and 1 m to its right.
+  const RangeBearingModel model(Eigen::Vector3d(0.5, 0.0, M_PI / 2));
+  const Eigen::Vector2d z = model.predict(Eigen::Vector3d(1, 2, M_PI / 2), {-2, 3.5}, kXY);
+  EXPECT_NEAR(z.x(), 3.0, 1e-12);
+  EXPECT_NEAR(z.y(), -1.0, 1e-12);
+}
+
+TEST(CartesianModel, JacobiansNumeric) {
+  for (const Eigen::Vector3d& offset :
+       {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(3.78, 0.5, 0.3), Eigen::Vector3d(-1, 2, -2.5)}) {
+    const RangeBearingModel model(offset);
+    for (const Eigen::Vector3d& xv :
+         {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(5, -3, 2.9), Eigen::Vector3d(-7, 1, -1.2)}) {
+      const Eigen::Vector2d m(4, 6);
+      Matrix23d Hv;
+      Eigen::Matrix2d Hm;
+      model.predict(xv, m, kXY, &Hv, &Hm);
+      const Matrix23d Hv_num = numericJacobian<3>(
+          [&](const Eigen::Vector3d& p) { return model.predict(p, m, kXY); }, xv, -1);
+      const Eigen::Matrix2d Hm_num = numericJacobian<2>(
+          [&](const Eigen::Vector2d& q) { return model.predict(xv, q, kXY); }, m, -1);
+      EXPECT_LT((Hv - Hv_num).norm(), kTol) << Hv << "\n" << Hv_num;
+      EXPECT_LT((Hm - Hm_num).norm(), kTol) << Hm << "\n" << Hm_num;
+
+      const Eigen::Vector2d z(2.5, -1.5);
+      Matrix23d Gv;
+      Eigen::Matrix2d Gz;
+      const Eigen::Vector2d back = model.inverse(xv, z, kXY, &Gv, &Gz);
+      const Matrix23d Gv_num = numericJacobian<3>(
+          [&](const Eigen::Vector3d& p) { return model.inverse(p, z, kXY); }, xv, -1);
+      const Eigen::Matrix2d Gz_num = numericJacobian<2>(
+          [&](const Eigen::Vector2d& q) { return model.inverse(xv, q, kXY); }, z, -1);
+      EXPECT_LT((Gv - Gv_num).norm(), kTol) << Gv << "\n" << Gv_num;
+      EXPECT_LT((Gz - Gz_num).norm(), kTol) << Gz << "\n" << Gz_num;
+      // Round trip and the same point as the range-bearing model sees.
+      EXPECT_LT((model.predict(xv, back, kXY) - z).norm(), 1e-12);
+      const Eigen::Vector2d rb = model.predict(xv, back);
+      EXPECT_LT((RangeBearingModel::sensorPoint(rb, MeasurementKind::kRangeBearing) - z).norm(),
+                1e-12);
+      EXPECT_NEAR(RangeBearingModel::range(z, kXY), rb(0), 1e-12);
+    }
+  }
+}
+
+TEST(CartesianModel, InnovationIsNotWrapped) {
+  const Eigen::Vector2d v = RangeBearingModel::innovation({1.0, 3.0}, {1.0, -3.0}, kXY);
+  EXPECT_DOUBLE_EQ(v.y(), 6.0);
+  const Eigen::Vector2d w =
+      RangeBearingModel::innovation({1.0, 3.0}, {1.0, -3.0}, MeasurementKind::kRangeBearing);
+  EXPECT_NEAR(w.y(), 6.0 - 2.0 * M_PI, 1e-12);
+}
+
+TEST(CartesianModel, SensorPointJacobianNumeric) {
+  const Eigen::Vector2d z(4.0, 0.7);
+  Eigen::Matrix2d J;
+  RangeBearingModel::sensorPoint(z, MeasurementKind::kRangeBearing, &J);
+  const Eigen::Matrix2d J_num = numericJacobian<2>(
+      [](const Eigen::Vector2d& q) {
+        return RangeBearingModel::sensorPoint(q, MeasurementKind::kRangeBearing);
+      },
+      z, -1);
+  EXPECT_LT((J - J_num).norm(), kTol);
+  RangeBearingModel::sensorPoint(z, kXY, &J);
+  EXPECT_TRUE(J.isIdentity());
 }
 
 }  // namespace

@@ -71,7 +71,7 @@ TEST(AssociatorLoader, ConfiguresFromTheParameterSource) {
   // The plugin is the same class as the core's DJNN (one ekf_slam_core shared by both).
   const auto* djnn = dynamic_cast<const DJNN*>(assoc.get());
   ASSERT_NE(djnn, nullptr);
-  EXPECT_DOUBLE_EQ(djnn->params().sensor_range, 42.0);
+  EXPECT_DOUBLE_EQ(djnn->params().sensor.max_range, 42.0);
   EXPECT_EQ(djnn->params().admit_evidence, 3);
   EXPECT_DOUBLE_EQ(djnn->params().individual_probability, 0.9);
 }

@@ -37,7 +37,7 @@ TEST(RosParameterSource, ReadsTypedValuesInTheAssociatorNamespace) {
 
   DJNN djnn;
   djnn.configure(src);
-  EXPECT_DOUBLE_EQ(djnn.params().sensor_range, 25.5);
+  EXPECT_DOUBLE_EQ(djnn.params().sensor.max_range, 25.5);
   EXPECT_EQ(djnn.params().admit_evidence, 3);
 }
 

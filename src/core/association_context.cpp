@@ -43,24 +43,25 @@ std::vector<int> AssociationContext::landmarksNear(const Eigen::Vector2d& center
 std::vector<int> AssociationContext::candidateLandmarks(double margin) const {
   if (obs_.empty() || ekf_.numLandmarks() == 0) return {};
   double r_max = 0.0;
-  for (const Observation& o : obs_) r_max = std::max(r_max, o.z(0));
+  for (const Observation& o : obs_) r_max = std::max(r_max, RangeBearingModel::range(o.z, o.kind));
   // Any landmark within `margin` of some observed point lies within r_max + margin of the sensor.
   return landmarksNear(sensorPose().head<2>(), r_max + margin);
 }
 
-const AssociationContext::Prediction& AssociationContext::prediction(int landmark) const {
-  auto [it, inserted] = predictions_.try_emplace(landmark);
+const AssociationContext::Prediction& AssociationContext::prediction(int landmark,
+                                                                     MeasurementKind kind) const {
+  auto [it, inserted] = predictions_.try_emplace(2 * landmark + static_cast<int>(kind));
   Prediction& p = it->second;
   if (inserted) {
-    p.z_hat = model_.predict(ekf_.pose(), ekf_.landmark(landmark), &p.H_pose, &p.H_landmark);
+    p.z_hat = model_.predict(ekf_.pose(), ekf_.landmark(landmark), kind, &p.H_pose, &p.H_landmark);
   }
   return p;
 }
 
 AssociationContext::Individual AssociationContext::individual(int obs, int landmark) const {
   ++evaluations_;
-  const Prediction& p = prediction(landmark);
   const Observation& o = obs_[obs];
+  const Prediction& p = prediction(landmark, o.kind);
   const Eigen::MatrixXd& P = ekf_.covariance();
   const int r = ekf_.stateRow(landmark);
 
@@ -72,7 +73,7 @@ AssociationContext::Individual AssociationContext::individual(int obs, int landm
   ind.S = HpPvv * p.H_pose.transpose() + cross + cross.transpose() +
           p.H_landmark * P.block<2, 2>(r, r) * p.H_landmark.transpose() + o.R;
   ind.S(0, 1) = ind.S(1, 0) = 0.5 * (ind.S(0, 1) + ind.S(1, 0));
-  ind.v = RangeBearingModel::innovation(o.z, p.z_hat);
+  ind.v = RangeBearingModel::innovation(o.z, p.z_hat, o.kind);
 
   const double det = ind.S(0, 0) * ind.S(1, 1) - ind.S(0, 1) * ind.S(1, 0);
   if (!(det > 0.0) || !std::isfinite(det)) {
@@ -90,13 +91,13 @@ AssociationContext::Individual AssociationContext::individual(int obs, int landm
 }
 
 Eigen::Vector2d AssociationContext::observedPosition(int obs) const {
-  return model_.inverse(ekf_.pose(), obs_[obs].z);
+  return model_.inverse(ekf_.pose(), obs_[obs].z, obs_[obs].kind);
 }
 
 Eigen::Matrix2d AssociationContext::innovationCovariance(int obs_a, int lm_a, int obs_b,
                                                          int lm_b) const {
-  const Prediction& a = prediction(lm_a);
-  const Prediction& b = prediction(lm_b);
+  const Prediction& a = prediction(lm_a, obs_[obs_a].kind);
+  const Prediction& b = prediction(lm_b, obs_[obs_b].kind);
   const Eigen::MatrixXd& P = ekf_.covariance();
   const int ra = ekf_.stateRow(lm_a);
   const int rb = ekf_.stateRow(lm_b);
@@ -118,8 +119,9 @@ void AssociationContext::jointInnovation(const std::vector<std::pair<int, int>>&
   S->resize(2 * k, 2 * k);
   for (int a = 0; a < k; ++a) {
     const auto& pa = pairs[a];
+    const Observation& o = obs_[pa.first];
     v->segment<2>(2 * a) =
-        RangeBearingModel::innovation(obs_[pa.first].z, prediction(pa.second).z_hat);
+        RangeBearingModel::innovation(o.z, prediction(pa.second, o.kind).z_hat, o.kind);
     for (int b = a; b < k; ++b) {
       const auto& pb = pairs[b];
       const Eigen::Matrix2d C = innovationCovariance(pa.first, pa.second, pb.first, pb.second);

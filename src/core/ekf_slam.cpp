@@ -158,9 +158,10 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
     const int idx = indexOf(p.id);
     if (idx < 0 || !p.z.allFinite() || !p.R.allFinite()) return false;
     rows_[i] = stateRow(idx);
-    const Eigen::Vector2d z_hat = model.predict(xv, x_.segment<2>(rows_[i]), &hv_[i], &hm_[i]);
+    const Eigen::Vector2d z_hat =
+        model.predict(xv, x_.segment<2>(rows_[i]), p.kind, &hv_[i], &hm_[i]);
     if (!z_hat.allFinite() || !hv_[i].allFinite() || !hm_[i].allFinite()) return false;
-    v_.segment<2>(2 * i) = RangeBearingModel::innovation(p.z, z_hat);
+    v_.segment<2>(2 * i) = RangeBearingModel::innovation(p.z, z_hat, p.kind);
   }
 
   // P H^T: each 2-row block of H has a pose part and one landmark part, so it costs O(n m).
@@ -218,11 +219,11 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
 }
 
 LandmarkId EkfSlam::addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d& R,
-                                const RangeBearingModel& model) {
+                                const RangeBearingModel& model, MeasurementKind kind) {
   if (!z.allFinite() || !R.allFinite()) return kNoLandmark;
   Matrix23d Gv;
   Eigen::Matrix2d Gz;
-  const Eigen::Vector2d m = model.inverse(x_.head<3>(), z, &Gv, &Gz);
+  const Eigen::Vector2d m = model.inverse(x_.head<3>(), z, kind, &Gv, &Gz);
   if (!m.allFinite() || !Gv.allFinite() || !Gz.allFinite()) return kNoLandmark;
 
   const Eigen::Index n = x_.size();

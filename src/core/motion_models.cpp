@@ -118,7 +118,10 @@ MotionStep TwistModel::step(const Eigen::Vector3d& x, const Input& u, double dt,
   const double av = std::abs(u(0));
   const double sv = p_.sigma_v + p_.sigma_v_per_v * av;
   const double sw = p_.sigma_w + p_.sigma_w_per_v * av;
-  const Eigen::Vector2d n(sv * sv, sw * sw);
+  Eigen::Vector2d n(sv * sv, sw * sw);
+  // White twist noise of density sigma^2 averaged over dt has variance sigma^2 / dt; G grows
+  // with dt, so Q grows with dt (at dt = 0, G = 0: no noise rather than 0 * inf).
+  if (p_.per_second) n = dt > 0.0 ? Eigen::Vector2d(n / dt) : Eigen::Vector2d::Zero();
   out.Q.noalias() = G * n.asDiagonal() * G.transpose();
   out.Q += p_.additive * dt;
   return out;

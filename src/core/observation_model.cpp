@@ -1,4 +1,4 @@
-// Range-bearing observation model with a sensor offset on the vehicle.
+// Range-bearing and Cartesian observation models with a sensor offset on the vehicle.
 #include "ekf_slam/core/observation_model.h"
 
 #include <cmath>
@@ -6,6 +6,22 @@
 #include "ekf_slam/core/angles.h"
 
 namespace ekf_slam {
+
+namespace {
+
+// The sensor's lever arm (lx, ly) in the world frame and the cos / sin of its world yaw.
+struct SensorFrame {
+  double lx, ly, cs, ss;
+};
+
+SensorFrame sensorFrame(const Eigen::Vector3d& xv, const Eigen::Vector3d& offset) {
+  const double c = std::cos(xv(2));
+  const double s = std::sin(xv(2));
+  const double ys = xv(2) + offset(2);
+  return {c * offset(0) - s * offset(1), s * offset(0) + c * offset(1), std::cos(ys), std::sin(ys)};
+}
+
+}  // namespace
 
 Eigen::Vector3d RangeBearingModel::sensorPose(const Eigen::Vector3d& xv) const {
   const double c = std::cos(xv(2));
@@ -59,6 +75,57 @@ Eigen::Vector2d RangeBearingModel::inverse(const Eigen::Vector3d& xv, const Eige
 Eigen::Vector2d RangeBearingModel::innovation(const Eigen::Vector2d& z,
                                               const Eigen::Vector2d& z_hat) {
   return Eigen::Vector2d(z(0) - z_hat(0), wrapAngle(z(1) - z_hat(1)));
+}
+
+Eigen::Vector2d RangeBearingModel::predict(const Eigen::Vector3d& xv, const Eigen::Vector2d& m,
+                                           MeasurementKind kind, Matrix23d* H_pose,
+                                           Eigen::Matrix2d* H_landmark) const {
+  if (kind == MeasurementKind::kRangeBearing) return predict(xv, m, H_pose, H_landmark);
+  const SensorFrame f = sensorFrame(xv, offset_);
+  const double lx = f.lx, ly = f.ly, cs = f.cs, ss = f.ss;
+  const double dx = m(0) - (xv(0) + lx);
+  const double dy = m(1) - (xv(1) + ly);
+  const Eigen::Vector2d z(cs * dx + ss * dy, -ss * dx + cs * dy);
+  if (H_landmark) *H_landmark << cs, ss, -ss, cs;
+  if (H_pose) {
+    // d/dyaw: the sensor position moves by (-ly, lx) and the frame turns: d z = (z_y, -z_x).
+    *H_pose << -cs, -ss, cs * ly - ss * lx + z(1), ss, -cs, -ss * ly - cs * lx - z(0);
+  }
+  return z;
+}
+
+Eigen::Vector2d RangeBearingModel::inverse(const Eigen::Vector3d& xv, const Eigen::Vector2d& z,
+                                           MeasurementKind kind, Matrix23d* G_pose,
+                                           Eigen::Matrix2d* G_obs) const {
+  if (kind == MeasurementKind::kRangeBearing) return inverse(xv, z, G_pose, G_obs);
+  const SensorFrame f = sensorFrame(xv, offset_);
+  const double lx = f.lx, ly = f.ly, cs = f.cs, ss = f.ss;
+  const double wx = cs * z(0) - ss * z(1);  // z rotated into the world frame
+  const double wy = ss * z(0) + cs * z(1);
+  if (G_pose) *G_pose << 1.0, 0.0, -ly - wy, 0.0, 1.0, lx + wx;
+  if (G_obs) *G_obs << cs, -ss, ss, cs;
+  return Eigen::Vector2d(xv(0) + lx + wx, xv(1) + ly + wy);
+}
+
+Eigen::Vector2d RangeBearingModel::innovation(const Eigen::Vector2d& z,
+                                              const Eigen::Vector2d& z_hat, MeasurementKind kind) {
+  return kind == MeasurementKind::kRangeBearing ? innovation(z, z_hat) : Eigen::Vector2d(z - z_hat);
+}
+
+Eigen::Vector2d RangeBearingModel::sensorPoint(const Eigen::Vector2d& z, MeasurementKind kind,
+                                               Eigen::Matrix2d* J) {
+  if (kind == MeasurementKind::kCartesian) {
+    if (J) J->setIdentity();
+    return z;
+  }
+  const double c = std::cos(z(1));
+  const double s = std::sin(z(1));
+  if (J) *J << c, -z(0) * s, s, z(0) * c;
+  return Eigen::Vector2d(z(0) * c, z(0) * s);
+}
+
+double RangeBearingModel::range(const Eigen::Vector2d& z, MeasurementKind kind) {
+  return kind == MeasurementKind::kRangeBearing ? z(0) : z.norm();
 }
 
 }  // namespace ekf_slam

@@ -122,6 +122,8 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   t.sigma_v_per_v = r.nonNegative("twist_sigma_v_per_v", t.sigma_v_per_v);
   t.sigma_w = r.nonNegative("twist_sigma_w", t.sigma_w);
   t.sigma_w_per_v = r.nonNegative("twist_sigma_w_per_v", t.sigma_w_per_v);
+  t.per_second = r.text("process_noise", t.per_second ? "per_second" : "per_message",
+                        {"per_message", "per_second"}) == "per_second";
   t.additive =
       diagonalCovariance(r.nonNegative("twist_additive_sigma_x", sigmaOf(t.additive, 0)),
                          r.nonNegative("twist_additive_sigma_y", sigmaOf(t.additive, 1)),

@@ -52,6 +52,15 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
       // Lost rule 1 counts the landmarks the sensor should see.
       {"lost_field_of_view", text(std::min(world.sensor.field_of_view, 2.0 * M_PI))},
   };
+  if (world.pose_delta_odometry) {
+    // The same per-step noise as the twist's, per metre of the step: sigma dt = (sigma / v) d.
+    const double v = world.vehicle.speed;
+    p["odometry_mode"] = "pose_delta";
+    p["pose_delta_alpha_trans_per_trans"] = text(t.sigma_v / v + t.sigma_v_per_v);
+    p["pose_delta_alpha_rot_per_trans"] = text(t.sigma_w / v + t.sigma_w_per_v);
+    p["pose_delta_alpha_trans_per_rot"] = "0";
+    p["pose_delta_alpha_rot_per_rot"] = "0";
+  }
   // What odometry_correction: wheel_factors needs to match the simulated wheels.
   if (world.noise.odometry_wheel_factors != Eigen::Vector2d::Ones())
     p["correction_track_width"] = text(world.vehicle.track_width);
@@ -69,8 +78,33 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
   if (short_name != "DJNN") return {};
   // DJNN's local region (eq. 10) and its evidence counter need the sensor's real extent: a
   // landmark outside it must not be counted as missed.
-  return {{"sensor_range", text(coveringRange(world))},
-          {"field_of_view", text(std::min(world.sensor.field_of_view, 2.0 * M_PI))}};
+  std::map<std::string, std::string> p = {
+      {"sensor_range", text(coveringRange(world))},
+      {"field_of_view", text(std::min(world.sensor.field_of_view, 2.0 * M_PI))}};
+  // Sensors that are not the papers' (keys added only then, so the papers' worlds read exactly
+  // what they did): a minimum range, a detection probability (the lowest in the region: DJNN's
+  // threshold sits halfway to it), margins scaled to a short range.
+  const SensorSpec& s = world.sensor;
+  if (s.min_range > 0.0) p["min_range"] = text(s.min_range);
+  const double pd =
+      std::min(s.detectionProbability(s.min_range), s.detectionProbability(coveringRange(world)));
+  if (pd < 1.0) p["detection_probability"] = text(pd);
+  const double R = coveringRange(world);
+  if (R < 15.0) p["range_margin"] = text(0.2 * R);
+  if (s.polygon.size() >= 3) {
+    std::string poly;
+    for (const Eigen::Vector2d& v : s.polygon) {
+      poly += (poly.empty() ? "" : "; ") + text(v.x()) + "," + text(v.y());
+    }
+    p["fov_polygon"] = poly;
+  }
+  if (pd < 1.0 && world.clutter_rate > 0.0) {
+    // Clutter is uniform over the sensor's sector (min..max range, field of view).
+    const double half = 0.5 * std::min(s.field_of_view, 2.0 * M_PI);
+    const double area = half * (R * R - s.min_range * s.min_range);
+    p["clutter_density"] = text(world.clutter_rate / area);
+  }
+  return p;
 }
 
 ExtractorSetup extractorFor(const World& world) {

@@ -11,11 +11,16 @@
 #include <stdexcept>
 #include <utility>
 
+#include <Eigen/Cholesky>
+
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/simulation/laser_scan_simulator.h"
+#include "ekf_slam/core/simulator_sensor_worlds.h"
 
 namespace ekf_slam {
 namespace sim {
+
+constexpr MeasurementKind kRB = MeasurementKind::kRangeBearing;
 
 // --- Random
 // ---------------------------------------------------------------------------------------
@@ -302,6 +307,8 @@ const std::vector<std::pair<std::string, Builder>>& registry() {
     r.emplace_back("hybrid", hybridWorld);
     r.emplace_back("aekf", aekfWorld);
     r.emplace_back("beacons", [] { return beaconCarPark().world; });  // laser: laserWorld()
+    r.emplace_back("arena", arenaWorld);  // simulator_sensor_worlds.cpp
+    r.emplace_back("fiducials", fiducialsWorld);
     for (int k = 1; k <= 10; ++k)
       r.emplace_back("rrw_noise_" + std::to_string(k), [k] { return rrwNoise(k); });
     for (int k = 1; k <= 10; ++k)
@@ -341,6 +348,14 @@ void World::validate() const {
   require(std::isfinite(sensor.field_of_view) && sensor.field_of_view > 0.0, n,
           "sensor.field_of_view must be > 0");
   require(sensor.offset.allFinite(), n, "sensor.offset is not finite");
+  require(sensor.polygon.empty() || sensor.polygon.size() >= 3, n,
+          "sensor.polygon needs at least 3 vertices");
+  for (const auto& v : sensor.polygon) require(v.allFinite(), n, "sensor.polygon is not finite");
+  require(sensor.detection_probability > 0.0 && sensor.detection_probability <= 1.0, n,
+          "sensor.detection_probability must lie in (0, 1]");
+  require(std::isnan(sensor.detection_probability_far) ||
+              (sensor.detection_probability_far > 0.0 && sensor.detection_probability_far <= 1.0),
+          n, "sensor.detection_probability_far must be NaN or lie in (0, 1]");
   require(finiteNonNegative(noise.sigma_speed) && finiteNonNegative(noise.sigma_steer) &&
               finiteNonNegative(noise.sigma_range) && finiteNonNegative(noise.sigma_bearing),
           n, "noise sigmas must be finite and >= 0");
@@ -457,6 +472,7 @@ std::vector<Observation> ObservationSet::toObservations() const {
   for (std::size_t i = 0; i < observations.size(); ++i) {
     out[i].z = observations[i].z;
     out[i].R = observations[i].R;
+    out[i].kind = observations[i].kind;
   }
   return out;
 }
@@ -473,7 +489,7 @@ std::vector<LandmarkId> ObservationSet::truthIds() const {
 namespace {
 // One engine per source of randomness: changing e.g. the clutter rate leaves the motion and
 // observation noise of a seed unchanged.
-enum Stream : std::uint64_t { kMotion, kObs, kMovers, kClutter, kOcclusion, kKidnap };
+enum Stream : std::uint64_t { kMotion, kObs, kMovers, kClutter, kOcclusion, kKidnap, kDetect };
 }  // namespace
 
 Simulation::Simulation(World world, std::uint64_t seed)
@@ -484,9 +500,13 @@ Simulation::Simulation(World world, std::uint64_t seed)
       mover_rng_(Random::streamSeed(seed, kMovers)),
       clutter_rng_(Random::streamSeed(seed, kClutter)),
       occlusion_rng_(Random::streamSeed(seed, kOcclusion)),
-      kidnap_rng_(Random::streamSeed(seed, kKidnap)) {
+      kidnap_rng_(Random::streamSeed(seed, kKidnap)),
+      detect_rng_(Random::streamSeed(seed, kDetect)) {
   world_.validate();
   model_.setSensorOffset(world_.sensor.offset);
+  region_.polygon = world_.sensor.polygon;
+  region_.max_range = std::numeric_limits<double>::infinity();
+  region_.field_of_view = 2.0 * M_PI;
   obs_every_ = world_.controlStepsPerObservation();
   pose_ = world_.start_pose;
   odom_pose_ = world_.start_pose;
@@ -547,9 +567,21 @@ void Simulation::emitOdometry() {
   odom_.true_pose = pose_;
 }
 
+double SensorSpec::detectionProbability(double r) const {
+  if (!std::isfinite(detection_probability_far) || !std::isfinite(max_range) ||
+      !(max_range > min_range)) {
+    return detection_probability;
+  }
+  const double f = std::clamp((r - min_range) / (max_range - min_range), 0.0, 1.0);
+  return detection_probability + f * (detection_probability_far - detection_probability);
+}
+
 bool Simulation::inView(const Eigen::Vector2d& z) const {
   const SensorSpec& s = world_.sensor;
   if (!(z(0) >= s.min_range && z(0) <= s.max_range)) return false;
+  if (s.polygon.size() >= 3 && !region_.contains(RangeBearingModel::sensorPoint(z, kRB), 0, 0)) {
+    return false;
+  }
   return s.field_of_view >= 2.0 * M_PI || std::abs(z(1)) <= 0.5 * s.field_of_view;
 }
 
@@ -584,6 +616,20 @@ void Simulation::emitObservations() {
   auto observe = [&](const Eigen::Vector2d& p, LandmarkId truth) {
     const Eigen::Vector2d z_true = model_.predict(pose_, p);
     if (!inView(z_true)) return;
+    // Missed detections (P_D < 1 only: worlds with P_D = 1 draw nothing, their output is as
+    // before).
+    const double pd = world_.sensor.detectionProbability(z_true(0));
+    if (pd < 1.0 && !(detect_rng_.uniform() < pd)) return;
+    if (world_.sensor.cartesian) {
+      Eigen::Matrix2d J;
+      const Eigen::Vector2d xy = RangeBearingModel::sensorPoint(z_true, kRB, &J);
+      const Eigen::Matrix2d R_xy = J * R * J.transpose();
+      const Eigen::Vector2d e(obs_rng_.normal(), obs_rng_.normal());
+      const Eigen::Vector2d z = xy + Eigen::LLT<Eigen::Matrix2d>(R_xy).matrixL() * e;
+      if (!inView(Eigen::Vector2d(z.norm(), std::atan2(z.y(), z.x())))) return;
+      scan_.observations.push_back({z, R_xy, truth, MeasurementKind::kCartesian});
+      return;
+    }
     Eigen::Vector2d z(z_true(0) + n.sigma_range * obs_rng_.normal(),
                       wrapAngle(z_true(1) + n.sigma_bearing * obs_rng_.normal()));
     if (!inView(z)) return;
@@ -605,7 +651,20 @@ void Simulation::emitObservations() {
           std::sqrt(s.min_range * s.min_range +
                     clutter_rng_.uniform() * (r_max * r_max - s.min_range * s.min_range));
       const double b = clutter_rng_.uniform(-half, half);
-      scan_.observations.push_back({Eigen::Vector2d(r, b), R, next_clutter_id_--});
+      const Eigen::Vector2d z(r, b);
+      if (s.cartesian || s.polygon.size() >= 3) {
+        // Uniform over the sector, kept when inside the polygon (a few draws are lost: the
+        // clutter rate is per sector, not per polygon area).
+        if (!inView(z)) continue;
+        Eigen::Matrix2d J;
+        const Eigen::Vector2d xy = RangeBearingModel::sensorPoint(z, kRB, &J);
+        if (s.cartesian) {
+          scan_.observations.push_back(
+              {xy, J * R * J.transpose(), next_clutter_id_--, MeasurementKind::kCartesian});
+          continue;
+        }
+      }
+      scan_.observations.push_back({z, R, next_clutter_id_--});
     }
   }
   // Scan order (increasing bearing), as a laser delivers them; stable for determinism.

@@ -539,6 +539,22 @@ ScanReport SlamPipeline::processScan(double stamp, const LaserScanData& input) {
   return associateAndUpdate(report.stamp, std::move(observations), std::move(report));
 }
 
+namespace {
+
+// The default covariance is (sigma_range, sigma_bearing); a Cartesian observation gets it
+// carried to (x, y) at its own point, J R J^T with J = d(x, y) / d(range, bearing).
+Eigen::Matrix2d defaultCovariance(const Observation& o, const Eigen::Matrix2d& R_range_bearing) {
+  if (o.kind != MeasurementKind::kCartesian) return R_range_bearing;
+  const double r = o.z.norm();
+  const double c = r > 0.0 ? o.z.x() / r : 1.0;
+  const double s = r > 0.0 ? o.z.y() / r : 0.0;
+  Eigen::Matrix2d J;
+  J << c, -r * s, s, r * c;
+  return J * R_range_bearing * J.transpose();
+}
+
+}  // namespace
+
 ScanReport SlamPipeline::processObservations(double stamp, std::vector<Observation> observations) {
   ScanReport report;
   report.stamp = predictTo(stamp, &report);
@@ -549,9 +565,10 @@ ScanReport SlamPipeline::processObservations(double stamp, std::vector<Observati
   report.input_index.reserve(observations.size());
   for (std::size_t i = 0; i < observations.size(); ++i) {
     Observation o = observations[i];
-    if (o.R.isZero(0.0)) o.R = R_default;
-    const bool ok = o.z.allFinite() && o.z(0) >= 0.0 && o.R.allFinite() && o.R(0, 0) > 0.0 &&
-                    o.R(1, 1) > 0.0 && o.R.determinant() > 0.0 && !std::isinf(o.descriptor);
+    if (o.R.isZero(0.0)) o.R = defaultCovariance(o, R_default);
+    const bool ok = o.z.allFinite() && (o.kind == MeasurementKind::kCartesian || o.z(0) >= 0.0) &&
+                    o.R.allFinite() && o.R(0, 0) > 0.0 && o.R(1, 1) > 0.0 &&
+                    o.R.determinant() > 0.0 && !std::isinf(o.descriptor);
     if (!ok) {
       ++report.invalid_observations;
       continue;
@@ -653,7 +670,7 @@ void SlamPipeline::applyAssociation(ScanReport* report) {
   pairings_.clear();
   for (std::size_t i = 0; i < n; ++i) {
     if (result.decision[i] == Decision::kPaired)
-      pairings_.push_back(Pairing{result.landmark[i], obs[i].z, obs[i].R});
+      pairings_.push_back(Pairing{result.landmark[i], obs[i].z, obs[i].R, obs[i].kind});
   }
   report->nis_dof = 2 * static_cast<int>(pairings_.size());
   report->update_ok = ekf_.update(pairings_, model_, &report->nis);
@@ -680,7 +697,7 @@ void SlamPipeline::applyAssociation(ScanReport* report) {
   // 2. New landmarks, from the updated pose.
   for (std::size_t i = 0; i < n; ++i) {
     if (result.decision[i] != Decision::kNew) continue;
-    const LandmarkId id = ekf_.addLandmark(obs[i].z, obs[i].R, model_);
+    const LandmarkId id = ekf_.addLandmark(obs[i].z, obs[i].R, model_, obs[i].kind);
     if (id == kNoLandmark) {
       ++counters_.failed_initialisations;
       result.decision[i] = Decision::kRejected;

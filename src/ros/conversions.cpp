@@ -1,6 +1,7 @@
 #include "ekf_slam/ros/conversions.h"
 
 #include <cmath>
+#include <limits>
 
 #include <tf2/exceptions.h>
 
@@ -86,7 +87,15 @@ std::vector<Observation> toObservations(const LandmarkObservationArray& msg,
   for (std::size_t i = 0; i < msg.observations.size(); ++i) {
     const LandmarkObservation& o = msg.observations[i];
     Observation& obs = out[i];
-    obs.z = Eigen::Vector2d(o.range, o.bearing);
+    if (o.model == LandmarkObservation::CARTESIAN) {
+      obs.z = Eigen::Vector2d(o.x, o.y);
+      obs.kind = MeasurementKind::kCartesian;
+    } else if (o.model == LandmarkObservation::RANGE_BEARING) {
+      obs.z = Eigen::Vector2d(o.range, o.bearing);
+    } else {
+      // Unknown model: not finite, so the pipeline rejects it with a count.
+      obs.z.setConstant(std::numeric_limits<double>::quiet_NaN());
+    }
     // Copied as is: an all-zero covariance means "use the default noise" and the pipeline
     // substitutes it; a non-finite one is rejected there with a count.
     obs.R << o.covariance[0], o.covariance[1], o.covariance[2], o.covariance[3];
@@ -98,8 +107,19 @@ std::vector<Observation> toObservations(const LandmarkObservationArray& msg,
 
 LandmarkObservation toObservationMsg(const Observation& obs) {
   LandmarkObservation msg;
-  msg.range = obs.z.x();
-  msg.bearing = obs.z.y();
+  if (obs.kind == MeasurementKind::kCartesian) {
+    msg.model = LandmarkObservation::CARTESIAN;
+    msg.x = obs.z.x();
+    msg.y = obs.z.y();
+    msg.range = std::hypot(msg.x, msg.y);
+    msg.bearing = std::atan2(msg.y, msg.x);
+  } else {
+    msg.model = LandmarkObservation::RANGE_BEARING;
+    msg.range = obs.z.x();
+    msg.bearing = obs.z.y();
+    msg.x = msg.range * std::cos(msg.bearing);
+    msg.y = msg.range * std::sin(msg.bearing);
+  }
   msg.covariance = {obs.R(0, 0), obs.R(0, 1), obs.R(1, 0), obs.R(1, 1)};
   msg.descriptor = obs.descriptor;
   msg.has_truth_id = false;

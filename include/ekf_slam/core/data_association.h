@@ -24,8 +24,9 @@ namespace ekf_slam {
 
 /// One observation of the current scan.
 struct Observation {
-  Eigen::Vector2d z = Eigen::Vector2d::Zero();      ///< (range, bearing) in the sensor frame
-  Eigen::Matrix2d R = Eigen::Matrix2d::Identity();  ///< measurement noise covariance
+  Eigen::Vector2d z = Eigen::Vector2d::Zero();      ///< (range, bearing) or (x, y), sensor frame
+  Eigen::Matrix2d R = Eigen::Matrix2d::Identity();  ///< measurement noise covariance, same units
+  MeasurementKind kind = MeasurementKind::kRangeBearing;
   /// Optional descriptor, e.g. the trunk diameter [m]; NaN when unknown.
   double descriptor = std::numeric_limits<double>::quiet_NaN();
 };
@@ -66,7 +67,7 @@ struct TentativeFeature {
 /// are reported by id (landmarkId(index)).
 class AssociationContext {
  public:
-  /// Predicted observation of one landmark and its Jacobians (cached per landmark).
+  /// Predicted observation of one landmark and its Jacobians (cached per landmark and kind).
   struct Prediction {
     Eigen::Vector2d z_hat;
     Matrix23d H_pose;
@@ -100,7 +101,8 @@ class AssociationContext {
   /// range plus `margin` of the sensor. The usual candidate set of the gated algorithms.
   std::vector<int> candidateLandmarks(double margin) const;
 
-  const Prediction& prediction(int landmark) const;
+  const Prediction& prediction(int landmark,
+                               MeasurementKind kind = MeasurementKind::kRangeBearing) const;
   /// Computes M_ij and friends; counts one candidate evaluation.
   Individual individual(int obs, int landmark) const;
   /// Where an observation would put a landmark (inverse model at the current pose).
@@ -125,8 +127,9 @@ class AssociationContext {
   const LandmarkIndex& index_;
   const std::vector<Observation>& obs_;
   double stamp_;
-  // Keyed by landmark index and filled on first use: a scan touches a handful of landmarks, so
-  // the cache must not cost O(map) to set up. Node-based, so returned references stay valid.
+  // Keyed by landmark index and kind (2 index + kind) and filled on first use: a scan touches a
+  // handful of landmarks, so the cache must not cost O(map) to set up. Node-based, so returned
+  // references stay valid.
   mutable std::unordered_map<int, Prediction> predictions_;
   mutable std::size_t evaluations_ = 0;
 };

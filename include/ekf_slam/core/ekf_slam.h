@@ -27,8 +27,9 @@ constexpr LandmarkId kNoLandmark = -1;
 /// One observation paired with a map landmark, for EkfSlam::update.
 struct Pairing {
   LandmarkId id;
-  Eigen::Vector2d z;  ///< (range, bearing) in the sensor frame
+  Eigen::Vector2d z;  ///< (range, bearing) or (x, y) in the sensor frame, as `kind` says
   Eigen::Matrix2d R;  ///< measurement noise
+  MeasurementKind kind = MeasurementKind::kRangeBearing;
 };
 
 class EkfSlam {
@@ -90,7 +91,8 @@ class EkfSlam {
   /// its Jacobians. O(n) arithmetic (plus the copy of P into its grown storage). Returns its new
   /// id, or kNoLandmark (state unchanged) when z, R or the result is not finite.
   LandmarkId addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d& R,
-                         const RangeBearingModel& model);
+                         const RangeBearingModel& model,
+                         MeasurementKind kind = MeasurementKind::kRangeBearing);
 
   /// Inserts a landmark with a known mean and covariance, uncorrelated with the rest (used to
   /// load a saved map). Uses `id` when given and free, else the next id. Returns the id.

@@ -69,6 +69,11 @@ struct TwistParams {
   double sigma_w = 0.02;                               ///< std dev of w [rad/s] ...
   double sigma_w_per_v = 0.01;                         ///< ... plus this many rad/s per m/s of |v|
   Eigen::Matrix3d additive = Eigen::Matrix3d::Zero();  ///< extra pose noise per second
+  /// false: the sigmas are the std dev of the twist of each step (the pose noise per second then
+  /// shrinks as the odometry rate grows). true: they are the square roots of the twist noise's
+  /// spectral densities, [m/s sqrt(s)] and [rad/s sqrt(s)]: the step's twist noise is
+  /// sigma^2 / dt, so the pose noise per second does not depend on the rate (docs/parameters.md).
+  bool per_second = false;
 };
 
 class TwistModel {

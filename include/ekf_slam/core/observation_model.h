@@ -1,12 +1,21 @@
-// Range-bearing observation of a 2D point landmark by a sensor mounted on the vehicle.
-// ROS-free (Eigen only).
+// Observation of a 2D point landmark by a sensor mounted on the vehicle: range-bearing (a laser's
+// trees) or Cartesian (x, y) in the sensor frame (a camera reading floor markers, a radar), each
+// with its own prediction, Jacobians and inverse. ROS-free (Eigen only).
 #pragma once
+
+#include <cstdint>
 
 #include <Eigen/Core>
 
 namespace ekf_slam {
 
 using Matrix23d = Eigen::Matrix<double, 2, 3>;
+
+/// What an observation's z holds; its covariance R is in the same coordinates.
+enum class MeasurementKind : std::uint8_t {
+  kRangeBearing = 0,  ///< (range, bearing) [m, rad]
+  kCartesian = 1,     ///< (x, y) in the sensor frame [m]
+};
 
 /// z = (range, bearing) of landmark m seen from a sensor at `sensor_offset` (x, y, yaw in the
 /// vehicle frame) on a vehicle at pose xv = (x, y, yaw). Bearing is measured from the sensor's
@@ -34,6 +43,22 @@ class RangeBearingModel {
 
   /// z - z_hat with the bearing wrapped to (-pi, pi].
   static Eigen::Vector2d innovation(const Eigen::Vector2d& z, const Eigen::Vector2d& z_hat);
+
+  // --- either measurement kind (range-bearing: the functions above) ---------------------------
+  /// Cartesian: z = Rot(-yaw_s) (m - s), s the sensor position.
+  Eigen::Vector2d predict(const Eigen::Vector3d& xv, const Eigen::Vector2d& m, MeasurementKind kind,
+                          Matrix23d* H_pose = nullptr, Eigen::Matrix2d* H_landmark = nullptr) const;
+  Eigen::Vector2d inverse(const Eigen::Vector3d& xv, const Eigen::Vector2d& z, MeasurementKind kind,
+                          Matrix23d* G_pose = nullptr, Eigen::Matrix2d* G_obs = nullptr) const;
+  /// z - z_hat; only a bearing is wrapped.
+  static Eigen::Vector2d innovation(const Eigen::Vector2d& z, const Eigen::Vector2d& z_hat,
+                                    MeasurementKind kind);
+  /// The point z reports in the sensor frame, and optionally J = d point / d z (identity for a
+  /// Cartesian z): point covariance J R J^T.
+  static Eigen::Vector2d sensorPoint(const Eigen::Vector2d& z, MeasurementKind kind,
+                                     Eigen::Matrix2d* J = nullptr);
+  /// Distance from the sensor that z reports.
+  static double range(const Eigen::Vector2d& z, MeasurementKind kind);
 
  private:
   Eigen::Vector3d offset_;

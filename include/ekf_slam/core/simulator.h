@@ -28,6 +28,7 @@
 #include "ekf_slam/core/ekf_slam.h"
 #include "ekf_slam/core/motion_models.h"
 #include "ekf_slam/core/observation_model.h"
+#include "ekf_slam/core/sensor_model.h"
 
 namespace ekf_slam {
 namespace sim {
@@ -85,6 +86,18 @@ struct SensorSpec {
   double field_of_view = M_PI;
   /// Sensor pose on the vehicle (x, y, yaw); the observations are in the sensor frame.
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  /// Chance that an object in view is detected in one observation set: `detection_probability`
+  /// at min_range, falling linearly to `detection_probability_far` at max_range (NaN: the same).
+  double detection_probability = 1.0;
+  double detection_probability_far = std::numeric_limits<double>::quiet_NaN();
+  /// Detection probability at range r.
+  double detectionProbability(double r) const;
+  /// Convex polygon in the sensor frame the object must also lie in (e.g. the floor trapezoid of
+  /// a downward camera); empty = none.
+  std::vector<Eigen::Vector2d> polygon;
+  /// Report (x, y) in the sensor frame with the full covariance J R J^T of the range-bearing
+  /// noise at the true point (J = d(x, y) / d(range, bearing)), noise drawn in (x, y).
+  bool cartesian = false;
 };
 
 /// Noise of the odometry (control) and of the observations, as standard deviations.
@@ -147,7 +160,10 @@ struct World {
   double control_period = 0.025;    ///< odometry period [s]
   double observation_period = 0.2;  ///< a multiple of control_period [s]
   double max_duration = 2000.0;     ///< safety stop if the route is never completed [s]
-  std::uint64_t default_seed = 1;   ///< the paper's seed where it gives one
+  /// The filter should use the odometry poses' increments (pipeline odometry_mode pose_delta)
+  /// rather than the twist.
+  bool pose_delta_odometry = false;
+  std::uint64_t default_seed = 1;  ///< the paper's seed where it gives one
 
   /// Throws std::invalid_argument naming the first bad field.
   void validate() const;
@@ -192,9 +208,10 @@ struct OdometrySample {
 };
 
 struct SimObservation {
-  Eigen::Vector2d z = Eigen::Vector2d::Zero();  ///< (range, bearing) in the sensor frame
+  Eigen::Vector2d z = Eigen::Vector2d::Zero();  ///< (range, bearing) or (x, y) in the sensor frame
   Eigen::Matrix2d R = Eigen::Matrix2d::Identity();
   LandmarkId truth_id = 0;  ///< landmark index, moverId(k), or a clutter id
+  MeasurementKind kind = MeasurementKind::kRangeBearing;
 };
 
 struct ObservationSet {
@@ -245,8 +262,9 @@ class Simulation {
 
   World world_;
   std::uint64_t seed_;
-  Random motion_rng_, obs_rng_, mover_rng_, clutter_rng_, occlusion_rng_, kidnap_rng_;
+  Random motion_rng_, obs_rng_, mover_rng_, clutter_rng_, occlusion_rng_, kidnap_rng_, detect_rng_;
   RangeBearingModel model_;
+  SensorModel region_;  ///< the polygon of the sensor spec (inView)
   TwistModel integrator_;
   int obs_every_;
 

@@ -17,12 +17,18 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kMaxEvidence = 1000000;
+// Fractional evidence steps (P_D < 1) accumulate rounding: thresholds are compared with this
+// slack. Steps of exactly +-1 (P_D = 1, no clutter) keep T an exact integer, so it changes nothing.
+constexpr double kEvidenceEps = 1e-9;
 // Tentative slots checked per scan for the timeout, wherever they are (amortised clean-up of
 // features the robot never comes back to).
 constexpr std::size_t kSweepPerScan = 8;
 
-// v - v_bar in measurement space, bearing wrapped.
-inline Eigen::Vector2d compensate(const Eigen::Vector2d& v, const Eigen::Vector2d& v_bar) {
+// v - v_bar in measurement space, a bearing wrapped. v_bar is a mean over the scan's pairs, so a
+// scan is expected to hold one measurement kind (one sensor).
+inline Eigen::Vector2d compensate(const Eigen::Vector2d& v, const Eigen::Vector2d& v_bar,
+                                  MeasurementKind kind) {
+  if (kind == MeasurementKind::kCartesian) return v - v_bar;
   return Eigen::Vector2d(v(0) - v_bar(0), wrapAngle(v(1) - v_bar(1)));
 }
 
@@ -49,14 +55,12 @@ void DJNN::configure(const ParameterSource& params) {
   const ParameterReader r(params);
   const Params def;  // the documented defaults
   Params p;
-  p.sensor_range = r.positive("sensor_range", def.sensor_range);
+  p.sensor = readSensorModel(r, def.sensor);
   p.range_margin = r.nonNegative("range_margin", def.range_margin);
-  if (p.range_margin >= p.sensor_range) {
+  if (p.range_margin >= p.sensor.max_range) {
     r.fail("range_margin", "must be smaller than sensor_range (eq. 7 shrinks R by it)");
   }
   p.angle_margin = r.inRange("angle_margin", def.angle_margin, 0.0, M_PI / 2);
-  p.field_of_view = r.inRange("field_of_view", def.field_of_view, 0.0, 2.0 * M_PI);
-  if (!(p.field_of_view > 0.0)) r.fail("field_of_view", "must be positive");
   p.individual_probability = r.probability("individual_probability", def.individual_probability);
   p.ambiguity_probability = r.probability("ambiguity_probability", def.ambiguity_probability);
   if (p.ambiguity_probability < p.individual_probability) {
@@ -92,15 +96,13 @@ void DJNN::configure(const ParameterSource& params) {
   static_gate_ = Chi2Table(p_.static_probability, 2 * std::max(p_.admit_evidence, 2));
   bias_gate_ = chi2Quantile(p_.bias_probability, 2);
   bias_decay_ = 1.0 - 1.0 / p_.bias_window;
-  cos_half_fov_ = std::cos(0.5 * p_.field_of_view);
-  sin_half_fov_ = std::sin(0.5 * p_.field_of_view);
-  tentative_cell_ = 0.5 * (p_.sensor_range + p_.range_margin);
+  tentative_cell_ = 0.5 * (p_.sensor.max_range + p_.range_margin);
   if (p_.penalty_region == "valid") {
-    penalty_range_ = p_.sensor_range - p_.range_margin;
-    penalty_margin_ = p_.angle_margin * p_.sensor_range;
+    penalty_radial_ = -p_.range_margin;
+    penalty_lateral_ = -(p_.angle_margin * p_.sensor.max_range);
   } else {
-    penalty_range_ = p_.sensor_range;
-    penalty_margin_ = 0.0;
+    penalty_radial_ = 0.0;
+    penalty_lateral_ = 0.0;
   }
   reset();
 }
@@ -120,18 +122,13 @@ void DJNN::reset() {
 
 // --- regions (eq. 7, 10) -------------------------------------------------------------------------
 
-// p_sensor is the landmark in the sensor frame. Eq. 7 / 10 are written for a 180 deg sensor: the
-// half-plane x_s > margin. For a field of view 2a the wedge test generalises it: the signed
-// distance to the nearer edge ray, sin(a) x - cos(a) |y|, must exceed the margin (for a = 90 deg
-// this is exactly x_s); a full circle has no edge.
-bool DJNN::inRegion(const Eigen::Vector2d& p_sensor, double range, double margin) const {
-  if (!(p_sensor.squaredNorm() < range * range)) return false;
-  if (p_.field_of_view >= 2.0 * M_PI) return true;
-  return sin_half_fov_ * p_sensor.x() - cos_half_fov_ * std::abs(p_sensor.y()) > margin;
-}
+// Eq. 7 / 10 are written for a 180 deg sensor: the half-plane x_s > margin. SensorModel::contains
+// generalises them: for a wedge of 2a the signed distance to the nearer edge ray,
+// sin(a) x - cos(a) |y|, must exceed the margin (exactly x_s at a = 90 deg); a polygon adds the
+// distance to each of its edges; a minimum range is grown / shrunk like the maximum range.
 
 void DJNN::buildCandidates(const AssociationContext& ctx) {
-  const double R = p_.sensor_range;
+  const double R = p_.sensor.max_range;
   const Eigen::Vector2d origin = sensor_pose_.head<2>();
   const double c = std::cos(sensor_pose_(2));
   const double s = std::sin(sensor_pose_(2));
@@ -144,9 +141,9 @@ void DJNN::buildCandidates(const AssociationContext& ctx) {
   for (int j : near_) {
     const Eigen::Vector2d d = ekf.landmark(j) - origin;
     const Eigen::Vector2d ps(c * d.x() + s * d.y(), -s * d.x() + c * d.y());
-    if (!inRegion(ps, R + p_.range_margin, -p_.angle_margin * R)) continue;  // eq. 10
+    if (!inRegion(ps, p_.range_margin, p_.angle_margin * R)) continue;  // eq. 10
     cand_.push_back(j);
-    cand_valid_.push_back(inRegion(ps, R - p_.range_margin, p_.angle_margin * R));  // eq. 7
+    cand_valid_.push_back(inRegion(ps, -p_.range_margin, -(p_.angle_margin * R)));  // eq. 7
   }
 }
 
@@ -154,7 +151,7 @@ void DJNN::buildCandidates(const AssociationContext& ctx) {
 
 double DJNN::score(int obs, int cand, const Eigen::Vector2d& v_bar, double* mahalanobis) const {
   const AssociationContext::Individual& ind = pair(obs, cand);
-  const Eigen::Vector2d v = compensate(ind.v, v_bar);
+  const Eigen::Vector2d v = compensate(ind.v, v_bar, obs_kind_[obs]);
   const double m = v.dot(ind.S_inv * v);
   *mahalanobis = m;
   return m + ind.log_det_S;  // eq. 5
@@ -248,6 +245,8 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   }
   ++stats_.scans;
   sensor_pose_ = ctx.sensorPose();
+  obs_kind_.resize(m);
+  for (int i = 0; i < m; ++i) obs_kind_[i] = ctx.observations()[i].kind;
   buildCandidates(ctx);
   const int n = static_cast<int>(cand_.size());
 
@@ -378,9 +377,27 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
 
 // --- evidence (eq. 9) ----------------------------------------------------------------------------
 
-int DJNN::bump(int evidence, int r) const {
-  const int t = evidence + r;
-  return p_.max_evidence > 0 ? std::min(t, p_.max_evidence) : t;
+double DJNN::bump(double evidence, double r) const {
+  const double t = evidence + r;
+  return p_.max_evidence > 0 ? std::min(t, static_cast<double>(p_.max_evidence)) : t;
+}
+
+// The paper's counter tests "hit rate above 1/2", the midpoint between the hit rate of a real
+// landmark (1) and of a pseudo-feature (0). With detection probability P_D and a false-detection
+// chance P_F in the feature's gate the threshold becomes the midpoint tau = (P_D + P_F) / 2, and
+// T = 2 (hits - tau scans): the same units, so admit / remove thresholds keep their meaning
+// (docs/djnn.md, "Detection probability").
+double DJNN::evidenceStep(bool hit, const Eigen::Matrix2d& C) const {
+  const double pd = p_.sensor.detection_probability;
+  double pf = 0.0;
+  if (p_.sensor.clutter_density > 0.0) {
+    // Gate area of the feature: the ellipse e^T C^-1 e <= tentative gate.
+    const double det = C.determinant();
+    const double area = det > 0.0 ? M_PI * tentative_gate_ * std::sqrt(det) : 0.0;
+    pf = std::min(0.5 * pd, p_.sensor.falseDetectionProbability(area));
+  }
+  const double tau = 0.5 * (pd + pf);
+  return hit ? 2.0 * (1.0 - tau) : -2.0 * tau;
 }
 
 void DJNN::updateMapEvidence(const AssociationContext& ctx, AssociationResult* result) {
@@ -417,16 +434,18 @@ void DJNN::updateMapEvidence(const AssociationContext& ctx, AssociationResult* r
       continue;  // removed by the bias test above
     }
     auto it = evidence_.try_emplace(id, p_.initial_evidence).first;
-    int r = 0;
+    double r = 0.0;
     if (count_[k] > 0) {
-      r = 1;
+      r = evidenceStep(true, ekf.landmarkCovariance(cand_[k]));
     } else {
       const Eigen::Vector2d d = ekf.landmark(cand_[k]) - origin;
       const Eigen::Vector2d ps(c * d.x() + s * d.y(), -s * d.x() + c * d.y());
-      if (inRegion(ps, penalty_range_, penalty_margin_)) r = -1;
+      if (inRegion(ps, penalty_radial_, penalty_lateral_)) {
+        r = evidenceStep(false, ekf.landmarkCovariance(cand_[k]));
+      }
     }
     it->second = bump(it->second, r);
-    if (it->second <= p_.remove_evidence) {
+    if (it->second <= p_.remove_evidence + kEvidenceEps) {
       result->remove.push_back(id);
       evidence_.erase(it);
       bias_.erase(id);
@@ -454,7 +473,8 @@ bool DJNN::biased(const AssociationContext& ctx, int obs, int cand) {
   const AssociationContext::Individual ind = ctx.individual(obs, cand_[cand]);
   Matrix23d G_pose;
   Eigen::Matrix2d G_obs;
-  ctx.model().inverse(ctx.robotPose(), ctx.observations()[obs].z, &G_pose, &G_obs);
+  const Observation& o = ctx.observations()[obs];
+  ctx.model().inverse(ctx.robotPose(), o.z, o.kind, &G_pose, &G_obs);
   Bias& b = bias_[ctx.landmarkId(cand_[cand])];
   b.sum = bias_decay_ * b.sum + G_obs * ind.v;
   b.cov = (bias_decay_ * bias_decay_) * b.cov + G_obs * ind.S * G_obs.transpose();
@@ -500,7 +520,7 @@ int DJNN::addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, d
   Tentative& t = tentative_[slot];
   t.position = pos;
   t.cov = cov;
-  t.evidence = bump(0, 1);  // seen now: r_k = +1
+  t.evidence = bump(0.0, evidenceStep(true, cov));  // seen now
   t.last_seen = stamp;
   t.alive = true;
   t.sightings = 1;
@@ -557,7 +577,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
   const Eigen::Matrix2d jitter =
       p_.static_test ? (p_.static_jitter * p_.static_jitter * Eigen::Matrix2d::Identity()).eval()
                      : Eigen::Matrix2d::Zero().eval();
-  queryTentatives(origin, p_.sensor_range + p_.range_margin, &tent_near_);
+  queryTentatives(origin, p_.sensor.max_range + p_.range_margin, &tent_near_);
   tent_hit_.assign(tent_near_.size(), 0);
 
   // Observations that may be a feature not yet in the map: unpaired, not ambiguous, inside the
@@ -569,11 +589,13 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
   for (int i = 0; i < m; ++i) {
     const Observation& o = ctx.observations()[i];
     if (result->decision[i] == Decision::kPaired || gated_[i]) continue;
-    if (!(o.z(0) < p_.sensor_range) || !o.z.allFinite()) continue;
+    if (!(RangeBearingModel::range(o.z, o.kind) < p_.sensor.max_range) || !o.z.allFinite()) {
+      continue;
+    }
     seen[i].eligible = true;
     Matrix23d G_pose;
     Eigen::Matrix2d G_obs;
-    seen[i].pos = ctx.model().inverse(pose, o.z, &G_pose, &G_obs);
+    seen[i].pos = ctx.model().inverse(pose, o.z, o.kind, &G_pose, &G_obs);
     seen[i].cov_obs = G_obs * o.R * G_obs.transpose();
     // Gate on position: observation noise of both sightings plus the current pose covariance once
     // (an upper bound on the pose error accumulated between the sightings; using it twice would
@@ -609,7 +631,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
       if (t.residual > static_gate_(2 * (t.sightings - 1))) {
         // Not one static point (a slow mover): its history is void; restart from this sighting.
         t.cov = C;
-        t.evidence = bump(0, 1);
+        t.evidence = bump(0.0, evidenceStep(true, C));
         t.last_seen = stamp;
         t.sightings = 1;
         t.residual = 0.0;
@@ -623,7 +645,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     const Eigen::Vector2d fused = t.position + K * (z - t.position);
     t.cov = (Eigen::Matrix2d::Identity() - K) * t.cov;
     t.cov = 0.5 * (t.cov + t.cov.transpose()).eval();
-    t.evidence = bump(t.evidence, 1);
+    t.evidence = bump(t.evidence, evidenceStep(true, t.cov));
     t.last_seen = stamp;
     moveTentative(slot, fused);
   }
@@ -636,9 +658,11 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     Tentative& t = tentative_[slot];
     const Eigen::Vector2d d = t.position - origin;
     const Eigen::Vector2d ps(c * d.x() + s * d.y(), -s * d.x() + c * d.y());
-    if (inRegion(ps, penalty_range_, penalty_margin_)) t.evidence = bump(t.evidence, -1);
+    if (inRegion(ps, penalty_radial_, penalty_lateral_)) {
+      t.evidence = bump(t.evidence, evidenceStep(false, t.cov));
+    }
     const bool stale = p_.tentative_timeout > 0.0 && stamp - t.last_seen > p_.tentative_timeout;
-    if (t.evidence <= p_.remove_evidence || stale) {
+    if (t.evidence <= p_.remove_evidence + kEvidenceEps || stale) {
       dropTentative(slot);
       ++stats_.tentative_dropped;
     }
@@ -649,8 +673,8 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     if (!seen[i].eligible) continue;
     int slot = seen[i].slot;
     if (slot < 0) slot = addTentative(seen[i].pos, seen[i].cov_obs + jitter, stamp);
-    const int t = tentative_[slot].evidence;
-    if (t >= p_.admit_evidence) {
+    const double t = tentative_[slot].evidence;
+    if (t >= p_.admit_evidence - kEvidenceEps) {
       result->decision[i] = Decision::kNew;
       pending_new_[i] = t;
       dropTentative(slot);  // now the pipeline's landmark; its counter starts in landmarkAdded()
@@ -674,7 +698,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
 }
 
 void DJNN::landmarkAdded(int obs, LandmarkId id) {
-  int t = p_.admit_evidence;
+  double t = p_.admit_evidence;
   if (obs >= 0 && obs < static_cast<int>(pending_new_.size()) && pending_new_[obs] >= 0) {
     t = pending_new_[obs];
   }
@@ -687,18 +711,21 @@ void DJNN::landmarkLoaded(LandmarkId id, std::uint32_t times_observed) {
   long t =
       std::max<long>({static_cast<long>(times_observed), p_.admit_evidence, p_.initial_evidence});
   if (p_.max_evidence > 0) t = std::min<long>(t, p_.max_evidence);
-  evidence_[id] = static_cast<int>(std::min<long>(t, kMaxEvidence));
+  evidence_[id] = static_cast<double>(std::min<long>(t, kMaxEvidence));
 }
 
 int DJNN::evidence(LandmarkId id) const {
   auto it = evidence_.find(id);
-  return it != evidence_.end() ? it->second : p_.initial_evidence;
+  // Whole units (exact for P_D = 1 without clutter, where every step is +-1).
+  return it != evidence_.end() ? static_cast<int>(std::floor(it->second + kEvidenceEps))
+                               : p_.initial_evidence;
 }
 
 std::vector<TentativeFeature> DJNN::tentativeFeatures() const {
   std::vector<TentativeFeature> out;
   for (const Tentative& t : tentative_) {
-    if (t.alive) out.push_back({t.position, t.evidence});
+    if (t.alive)
+      out.push_back({t.position, static_cast<int>(std::floor(t.evidence + kEvidenceEps))});
   }
   return out;
 }

@@ -22,11 +22,8 @@ void setObservedPoints(const std::vector<Observation>& observations, MatchInput*
   in->observed.clear();
   in->observed_cov.clear();
   for (const Observation& o : observations) {
-    const double c = std::cos(o.z.y());
-    const double s = std::sin(o.z.y());
     Eigen::Matrix2d g;
-    g << c, -o.z.x() * s, s, o.z.x() * c;
-    in->observed.emplace_back(o.z.x() * c, o.z.x() * s);
+    in->observed.push_back(RangeBearingModel::sensorPoint(o.z, o.kind, &g));
     in->observed_cov.push_back(g * o.R * g.transpose());
   }
 }

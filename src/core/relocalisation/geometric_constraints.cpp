@@ -35,15 +35,15 @@ std::vector<ObservedPoint> observedPoints(const std::vector<Observation>& observ
   const Eigen::Matrix2d Rs = rotation2d(sensor_offset.z());
   for (std::size_t i = 0; i < observations.size(); ++i) {
     const Observation& o = observations[i];
-    const double r = o.z.x(), b = o.z.y();
+    const double r = RangeBearingModel::range(o.z, o.kind);
     if (!o.z.allFinite() || !(r > 0.0) || r > max_range || !positiveDefinite(o.R)) continue;
     if (std::isinf(o.descriptor)) continue;
-    Eigen::Matrix2d J;  // d(point in the sensor frame) / d(r, b)
-    J << std::cos(b), -r * std::sin(b), std::sin(b), r * std::cos(b);
+    Eigen::Matrix2d J;  // d(point in the sensor frame) / dz
+    const Eigen::Vector2d ps = RangeBearingModel::sensorPoint(o.z, o.kind, &J);
     const Eigen::Matrix2d G = Rs * J;
     ObservedPoint p;
     p.input = static_cast<int>(i);
-    p.p = sensor_offset.head<2>() + Rs * Eigen::Vector2d(r * std::cos(b), r * std::sin(b));
+    p.p = sensor_offset.head<2>() + Rs * ps;
     p.cov = G * o.R * G.transpose();
     p.range = r;
     p.descriptor = o.descriptor;

@@ -17,6 +17,7 @@
 
 #include "ekf_slam/core/chi2.h"
 #include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/sensor_model.h"
 
 namespace ekf_slam {
 
@@ -47,10 +48,11 @@ class DJNN : public DataAssociation {
 
   /// Parameters (names as read in configure(); defaults in docs/djnn.md).
   struct Params {
-    double sensor_range = 30.0;   ///< R, effective sensor range [m]
-    double range_margin = 3.0;    ///< d [m]
-    double angle_margin = 0.1;    ///< dphi [rad]
-    double field_of_view = M_PI;  ///< full angle about the sensor x axis [rad]
+    /// R (sensor_range), min_range, field_of_view, fov_polygon, detection_probability P_D and
+    /// clutter_density: the regions of eq. 7 / 9 / 10 and the evidence weights.
+    SensorModel sensor;
+    double range_margin = 3.0;  ///< d [m]
+    double angle_margin = 0.1;  ///< dphi [rad]
     double individual_probability = 0.999;
     /// An unpaired observation within chi2(2, p) of a local landmark (plain or compensated) is
     /// ambiguous and rejected rather than made tentative; >= individual_probability.
@@ -104,7 +106,7 @@ class DJNN : public DataAssociation {
   struct Tentative {
     Eigen::Vector2d position;
     Eigen::Matrix2d cov;  ///< observation-noise part only (the pose part is added at gating)
-    int evidence = 0;
+    double evidence = 0.0;
     double last_seen = 0.0;
     bool alive = false;
     int sightings = 0;      ///< fused into position since the last (re)start
@@ -147,7 +149,15 @@ class DJNN : public DataAssociation {
   /// The loop shared by cases 2-4: each contested landmark keeps its closest (compensated)
   /// observation; losers re-run NN against untaken landmarks; until clean.
   void resolve(const Eigen::Vector2d& v_bar);
-  bool inRegion(const Eigen::Vector2d& p_sensor, double range, double margin) const;
+  /// p_sensor inside the sensor region grown by `radial` [m] in range and `lateral` [m] across
+  /// its edges (negative: shrunk).
+  bool inRegion(const Eigen::Vector2d& p_sensor, double radial, double lateral) const {
+    return p_.sensor.contains(p_sensor, radial, lateral);
+  }
+  /// Evidence increment r_k of a feature seen (hit) or missed in the sensor region: 2 (1 - tau)
+  /// and -2 tau with tau = (P_D + P_F) / 2, P_F the chance that clutter falls into the feature's
+  /// gate (position covariance C); +1 / -1 for P_D = 1 without clutter (the paper's counter).
+  double evidenceStep(bool hit, const Eigen::Matrix2d& C) const;
 
   // --- evidence (eq. 9) ----------------------------------------------------------------------
   void updateMapEvidence(const AssociationContext& ctx, AssociationResult* result);
@@ -159,24 +169,24 @@ class DJNN : public DataAssociation {
   void moveTentative(int slot, const Eigen::Vector2d& pos);
   CellKey tentativeKey(const Eigen::Vector2d& p) const;
   void queryTentatives(const Eigen::Vector2d& center, double radius, std::vector<int>* out) const;
-  int bump(int evidence, int r) const;
+  double bump(double evidence, double r) const;
 
   Params p_;
   double gate_ = 0.0;
   double wide_gate_ = 0.0;
   double ambiguity_gate_ = 0.0;
   double tentative_gate_ = 0.0;
-  double cos_half_fov_ = 0.0, sin_half_fov_ = 1.0;
   double tentative_cell_ = 10.0;
-  double penalty_range_ = 30.0, penalty_margin_ = 0.0;
+  double penalty_radial_ = 0.0, penalty_lateral_ = 0.0;
   Chi2Table static_gate_;
   double bias_gate_ = 0.0, bias_decay_ = 0.8;
 
   // Per-scan scratch, reused between calls to avoid heap churn.
   Eigen::Vector3d sensor_pose_ = Eigen::Vector3d::Zero();
-  std::vector<int> near_;         ///< landmarksNear() result
-  std::vector<int> cand_;         ///< local region (eq. 10), state-order indices
-  std::vector<char> cand_valid_;  ///< in the valid region (eq. 7)
+  std::vector<MeasurementKind> obs_kind_;  ///< per observation of the scan
+  std::vector<int> near_;                  ///< landmarksNear() result
+  std::vector<int> cand_;                  ///< local region (eq. 10), state-order indices
+  std::vector<char> cand_valid_;           ///< in the valid region (eq. 7)
   std::vector<AssociationContext::Individual> table_;  ///< m x |cand|
   std::vector<int> assign_;                            ///< per observation: candidate slot or -1
   std::vector<int> count_;                             ///< per candidate: observations assigned
@@ -190,13 +200,13 @@ class DJNN : public DataAssociation {
   std::vector<TentativePair> tentative_pairs_;
 
   // State kept between scans.
-  std::unordered_map<LandmarkId, int> evidence_;
+  std::unordered_map<LandmarkId, double> evidence_;
   std::unordered_map<LandmarkId, Bias> bias_;
   std::vector<Tentative> tentative_;
   std::vector<int> free_slots_;
   std::unordered_map<CellKey, std::vector<int>> tentative_cells_;
   std::size_t tentative_sweep_ = 0;
-  std::vector<int> pending_new_;  ///< per observation of the last scan: T at admission, or -1
+  std::vector<double> pending_new_;  ///< per observation of the last scan: T at admission, or -1
 
   Case last_case_ = Case::kNone;
   Eigen::Vector2d last_v_bar_ = Eigen::Vector2d::Zero();

@@ -1,0 +1,11 @@
+# Sensor model, observation models and process noise options (issue 13).
+target_sources(ekf_slam_core PRIVATE ${PROJECT_SOURCE_DIR}/src/core/sensor_model.cpp)
+
+if(CATKIN_ENABLE_TESTING)
+  ekf_slam_gtest(test_sensor_model ekf_slam_core)
+  ekf_slam_gtest(test_djnn_detection ekf_slam_core)
+  ekf_slam_gtest(test_cartesian_observations ekf_slam_core)
+endif()
+
+# Worlds for sensors that miss landmarks (simulator_sensor_worlds.cpp).
+target_sources(ekf_slam_core PRIVATE ${PROJECT_SOURCE_DIR}/src/core/simulator_sensor_worlds.cpp)

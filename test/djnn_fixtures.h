@@ -1,0 +1,27 @@
+// DJNN configured with the paper's settings, shared by the DJNN tests.
+#pragma once
+
+#include <map>
+#include <string>
+
+#include "ekf_slam/core/association/djnn.h"
+
+namespace ekf_slam {
+namespace assoc_test {
+
+// The paper's settings (0.95 gates, admission when seen twice, no static / bias tests): the
+// hand-made problems of the tests are worked out for them. `params` override them.
+inline DJNN makeDjnn(const std::map<std::string, std::string>& params = {}) {
+  std::map<std::string, std::string> p = {{"individual_probability", "0.95"},
+                                          {"ambiguity_probability", "0.95"},
+                                          {"admit_evidence", "2"},
+                                          {"static_test", "false"},
+                                          {"bias_test", "false"}};
+  for (const auto& kv : params) p[kv.first] = kv.second;
+  DJNN d;
+  d.configure(MapParameterSource(p));
+  return d;
+}
+
+}  // namespace assoc_test
+}  // namespace ekf_slam

@@ -1,0 +1,173 @@
+// DJNN with a sensor model: the detection-probability-aware evidence score reproduces the paper's
+// counter exactly at P_D = 1 without clutter, keeps landmarks a low-P_D sensor sees only now and
+// then, and the minimum range / polygon bound the sensor region. docs/djnn.md.
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "association_fixtures.h"
+#include "djnn_fixtures.h"
+#include "ekf_slam/core/association/djnn.h"
+
+namespace ekf_slam {
+namespace {
+
+using assoc_test::makeDjnn;
+using assoc_test::Scene;
+
+void clearScan(Scene* s) {
+  s->observations.clear();
+  s->truth.clear();
+}
+
+// Random hits and misses of three landmarks in view: DJNN's evidence must equal the paper's
+// integer counter T = initial + hits - misses, scan by scan, and the landmark leave exactly when
+// T reaches 0; with the defaults and with P_D = 1 / no clutter spelled out.
+TEST(DJNNDetection, PaperCounterIsReproducedAtDetectionProbabilityOne) {
+  for (const bool explicit_model : {false, true}) {
+    Scene s;
+    const std::vector<Eigen::Vector2d> where = {{10, 0}, {12, 6}, {15, -4}};
+    for (const auto& p : where) s.addLandmark(p);
+    s.build();
+    DJNN d = explicit_model ? makeDjnn({{"detection_probability", "1"}, {"clutter_density", "0"}})
+                            : makeDjnn();
+    std::mt19937 rng(7);
+    const double rate[] = {0.8, 0.5, 0.35};
+    std::vector<int> expected(where.size(), 2);  // initial_evidence
+    std::vector<bool> gone(where.size(), false);
+    int misses = 0, removals = 0;
+    for (int scan = 0; scan < 60; ++scan) {
+      clearScan(&s);
+      std::vector<bool> hit(where.size());
+      for (std::size_t j = 0; j < where.size(); ++j) {
+        hit[j] = !gone[j] && std::bernoulli_distribution(rate[j])(rng);
+        if (hit[j]) s.observeLandmark(static_cast<int>(j));
+      }
+      if (s.observations.empty()) continue;  // empty scans change nothing (tested elsewhere)
+      const AssociationResult r = d.associate(s.context(scan));
+      for (std::size_t j = 0; j < where.size(); ++j) {
+        if (gone[j]) continue;
+        expected[j] += hit[j] ? 1 : -1;
+        misses += !hit[j];
+        const bool removed =
+            std::find(r.remove.begin(), r.remove.end(), Scene::idOf(j)) != r.remove.end();
+        ASSERT_EQ(removed, expected[j] <= 0) << "scan " << scan << " landmark " << j;
+        if (removed) {
+          gone[j] = true;
+          ++removals;
+        } else {
+          ASSERT_EQ(d.evidence(Scene::idOf(j)), expected[j]) << "scan " << scan;
+        }
+      }
+    }
+    EXPECT_GT(misses, 10);
+    EXPECT_GE(removals, 1);
+  }
+}
+
+// Seen one scan in three: the paper's counter removes it; with P_D = 0.3 it stays (its hit rate
+// 1/3 is above tau = 0.15) and its evidence grows.
+TEST(DJNNDetection, LowDetectionProbabilityKeepsAnIntermittentLandmark) {
+  auto run = [](const std::string& pd, int* final_evidence) {
+    Scene s;
+    const int a = s.addLandmark({10, 0});
+    const int b = s.addLandmark({12, 6});
+    s.build();
+    DJNN d = makeDjnn({{"detection_probability", pd}});
+    int removed_at = -1;
+    for (int scan = 0; scan < 30 && removed_at < 0; ++scan) {
+      clearScan(&s);
+      s.observeLandmark(b);
+      if (scan % 3 == 0) s.observeLandmark(a);
+      const AssociationResult r = d.associate(s.context(scan));
+      for (LandmarkId id : r.remove) {
+        if (id == Scene::idOf(a)) removed_at = scan;
+      }
+    }
+    *final_evidence = d.evidence(Scene::idOf(a));
+    return removed_at;
+  };
+  int t = 0;
+  EXPECT_GE(run("1", &t), 0);
+  EXPECT_EQ(run("0.3", &t), -1);
+  // 10 hits of +1.7 and 20 misses of -0.3 from 2: 13.
+  EXPECT_EQ(t, 13);
+}
+
+// The weights: tau = (P_D + P_F) / 2, hit +2 (1 - tau), miss -2 tau; clutter raises tau.
+TEST(DJNNDetection, WeightsFollowDetectionAndClutter) {
+  auto after = [](const std::map<std::string, std::string>& p, int hits, int misses) {
+    Scene s;
+    const int a = s.addLandmark({10, 0});
+    const int b = s.addLandmark({12, 6});
+    s.build();
+    DJNN d = makeDjnn(p);
+    for (int k = 0; k < hits + misses; ++k) {
+      clearScan(&s);
+      s.observeLandmark(b);
+      if (k < hits) s.observeLandmark(a);
+      d.associate(s.context(k));
+    }
+    return d.evidence(Scene::idOf(a));
+  };
+  // P_D = 0.4: tau = 0.2: 2 + 5 * 1.6 - 5 * 0.4 = 8.
+  EXPECT_EQ(after({{"detection_probability", "0.4"}}, 5, 5), 8);
+  // Strong clutter (P_F capped at P_D / 2 = 0.2): tau = 0.3: 2 + 5 * 1.4 - 5 * 0.6 = 6.
+  EXPECT_EQ(after({{"detection_probability", "0.4"}, {"clutter_density", "1000"}}, 5, 5), 6);
+}
+
+// A feature seen, missed, and seen again: the paper drops it at the miss (T = 0); with P_D = 0.5
+// (tau = 0.25) T = 1.5 - 0.5 + 1.5 = 2.5 admits it on the second sighting.
+TEST(DJNNDetection, TentativeFeatureSurvivesAMissAtLowDetectionProbability) {
+  auto decisions = [](const std::string& pd) {
+    Scene s;
+    const int b = s.addLandmark({12, 6});
+    s.build();
+    DJNN d = makeDjnn({{"detection_probability", pd}});
+    std::vector<Decision> out;
+    for (int k = 0; k < 3; ++k) {
+      clearScan(&s);
+      s.observeLandmark(b);
+      if (k != 1) s.observePoint({8, -3});
+      const AssociationResult r = d.associate(s.context(k));
+      if (k != 1) out.push_back(r.decision.back());
+    }
+    return out;
+  };
+  EXPECT_EQ(decisions("1"), (std::vector<Decision>{Decision::kTentative, Decision::kTentative}));
+  EXPECT_EQ(decisions("0.5"), (std::vector<Decision>{Decision::kTentative, Decision::kNew}));
+}
+
+// The sensor region of eq. 9 honours the minimum range and the polygon: landmarks closer than
+// min_range or outside the polygon are not penalised; one inside it is.
+TEST(DJNNDetection, MinimumRangeAndPolygonBoundThePenaltyRegion) {
+  Scene s;
+  const int seen = s.addLandmark({3, 0});
+  const int near = s.addLandmark({0.5, 0});  // closer than min_range 0.8
+  const int side = s.addLandmark({2, 2.5});  // in the half-plane, outside the trapezoid
+  const int inside = s.addLandmark({4, 1});  // in the trapezoid, never observed
+  s.build();
+  DJNN d = makeDjnn({{"sensor_range", "5"},
+                     {"range_margin", "0.3"},
+                     {"angle_margin", "0.02"},
+                     {"min_range", "0.8"},
+                     {"fov_polygon", "0.8,-0.5; 4.5,-1.5; 4.5,1.5; 0.8,0.5"},
+                     {"initial_evidence", "5"}});
+  s.observeLandmark(seen);
+  for (int k = 0; k < 3; ++k) d.associate(s.context(k));
+  EXPECT_EQ(d.evidence(Scene::idOf(near)), 5);
+  EXPECT_EQ(d.evidence(Scene::idOf(side)), 5);
+  EXPECT_EQ(d.evidence(Scene::idOf(inside)), 2);
+  EXPECT_EQ(d.evidence(Scene::idOf(seen)), 8);
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

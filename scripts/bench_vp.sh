@@ -1,15 +1,17 @@
 #!/usr/bin/env bash
 # Full Victoria Park offline run per associator (ekf_slam_offline, config/victoria_park.yaml),
 # best of N runs (default 3) by wall time; prints a markdown table of the wall time of the
-# processing loop and its stages, plus the run's landmarks and GPS RMSE.
-#   scripts/bench_vp.sh [ASSOCIATOR ...]     (default: NN JCBB DJNN NNJCBB Hungarian)
+# processing loop and its stages, plus the run's landmarks and GPS RMSE; then the EKF update against
+# its floor: the update's flops counted in the run divided by the GFLOP/s of a dense rank update on
+# this machine (bench_rank_update at the run's flop-weighted state size N and dimension d).
+#   scripts/bench_vp.sh [ASSOCIATOR ...]     (default: NN JCBB DJNN NNJCBB Hungarian RRWSC)
 # Env: RUNS (3), VP_BAG (default $EKF_SLAM_BUILD/vp.bag, converted from $VP_DATA if missing).
 set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 RUNS=${RUNS:-3}
 VP_BAG=${VP_BAG:-$EKF_SLAM_BUILD/vp.bag}
 associators=("$@")
-((${#associators[@]})) || associators=(NN JCBB DJNN NNJCBB Hungarian)
+((${#associators[@]})) || associators=(NN JCBB DJNN NNJCBB Hungarian RRWSC)
 
 [[ -f "$EKF_SLAM_DEVEL/setup.bash" ]] || { echo "no build in $EKF_SLAM_BUILD: run scripts/build.sh"; exit 1; }
 source "$EKF_SLAM_DEVEL/setup.bash"
@@ -27,18 +29,36 @@ done
 
 echo "Machine: $(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //');" \
   "best of $RUNS runs; bag $(basename "$VP_BAG")"
-/usr/bin/python3 - "$out" "$RUNS" "${associators[@]}" <<'PY'
-import json, sys
-out, runs, names = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
+/usr/bin/python3 - "$out" "$RUNS" "$EKF_SLAM_DEVEL/lib/ekf_slam/bench_rank_update" "${associators[@]}" <<'PY'
+import json, subprocess, sys
+out, runs, bench, names = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4:]
+best = {}  # the run with the best wall time, per associator
+for n in names:
+    ms = [json.load(open(f"{out}/{n}.{r}/metrics.json")) for r in range(1, runs + 1)]
+    best[n] = min(ms, key=lambda m: m["wall_time_s"])
 print("| associator | wall [s] | extraction [s] | association [s] | update [s] | assoc. median / p99 [us] "
       "| update median / p99 [us] | bag read [s] | scans | landmarks | GPS RMSE [m] |")
 print("|---|---|---|---|---|---|---|---|---|---|---|")
 for n in names:
-    ms = [json.load(open(f"{out}/{n}.{r}/metrics.json")) for r in range(1, runs + 1)]
-    m = min(ms, key=lambda m: m["wall_time_s"])
+    m = best[n]
     print(f"| {m['associator']} | {m['wall_time_s']:.3f} | {m['extraction_time_s']:.3f} "
           f"| {m['association_time_s']:.3f} | {m['update_time_s']:.3f} "
           f"| {m['association_us_median']:.1f} / {m['association_us_p99']:.1f} "
           f"| {m['update_us_median']:.1f} / {m['update_us_p99']:.0f} | {m['bag_read_s']:.3f} "
           f"| {m['scans']} | {m['landmarks']} | {m.get('gps_rmse_m') or float('nan'):.2f} |")
+
+print()
+print("| associator | update GFLOP | N, d (flop-weighted) | rank update [GFLOP/s] | floor [s] "
+      "| update [s] | update / floor | wall [s] | wall / floor |")
+print("|---|---|---|---|---|---|---|---|---|")
+for n in names:
+    m = best[n]
+    N, d = round(m["update_rank_n"]), max(1, round(m["update_rank_d"]))
+    rows = subprocess.run([bench, str(N), str(d), "--repeat", "50"], check=True,
+                          capture_output=True, text=True).stdout.splitlines()
+    gflops = float(rows[-1].split("|")[1].split()[0])  # the triangle-only rank update
+    floor = m["update_flops"] / (gflops * 1e9)
+    print(f"| {m['associator']} | {m['update_flops'] * 1e-9:.2f} | {N}, {d} | {gflops:.1f} "
+          f"| {floor:.3f} | {m['update_time_s']:.3f} | {m['update_time_s'] / floor:.2f} "
+          f"| {m['wall_time_s']:.3f} | {m['wall_time_s'] / floor:.2f} |")
 PY

@@ -62,7 +62,7 @@ AssociationContext::Individual AssociationContext::individual(int obs, int landm
   ++evaluations_;
   const Observation& o = obs_[obs];
   const Prediction& p = prediction(landmark, o.kind);
-  const Eigen::MatrixXd& P = ekf_.covariance();
+  const auto P = ekf_.storedCovariance();  // a view, no copy; the blocks read here are current
   const int r = ekf_.stateRow(landmark);
 
   // S = H P H^T + R with H = [H_pose 0 .. H_landmark .. 0]: only the pose, landmark and
@@ -98,7 +98,7 @@ Eigen::Matrix2d AssociationContext::innovationCovariance(int obs_a, int lm_a, in
                                                          int lm_b) const {
   const Prediction& a = prediction(lm_a, obs_[obs_a].kind);
   const Prediction& b = prediction(lm_b, obs_[obs_b].kind);
-  const Eigen::MatrixXd& P = ekf_.covariance();
+  const auto P = ekf_.storedCovariance();  // a view, no copy; the blocks read here are current
   const int ra = ekf_.stateRow(lm_a);
   const int rb = ekf_.stateRow(lm_b);
   // cov(v_a, v_b) = H_a P H_b^T (+ R when both pairs use the same observation); the pose block
@@ -106,7 +106,7 @@ Eigen::Matrix2d AssociationContext::innovationCovariance(int obs_a, int lm_a, in
   const Eigen::Matrix<double, 3, 2> PvHb = P.topLeftCorner<3, 3>() * b.H_pose.transpose() +
                                            P.block<3, 2>(0, rb) * b.H_landmark.transpose();
   const Eigen::Matrix<double, 2, 2> PmHb = P.block<2, 3>(ra, 0) * b.H_pose.transpose() +
-                                           P.block<2, 2>(ra, rb) * b.H_landmark.transpose();
+                                           ekf_.blockCovariance(ra, rb) * b.H_landmark.transpose();
   Eigen::Matrix2d C = a.H_pose * PvHb + a.H_landmark * PmHb;
   if (obs_a == obs_b) C += obs_[obs_a].R;
   return C;

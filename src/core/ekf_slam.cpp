@@ -13,22 +13,11 @@ namespace ekf_slam {
 
 namespace {
 
-// Copies the lower triangle onto the upper one: the rank update only writes the lower half, and
-// this also makes P exactly symmetric. Tiled so that the strided reads stay in cache.
-void mirrorLower(Eigen::MatrixXd* P) {
-  constexpr Eigen::Index kTile = 32;
-  const Eigen::Index n = P->rows();
-  double* d = P->data();
-  for (Eigen::Index jb = 0; jb < n; jb += kTile) {
-    const Eigen::Index je = std::min(jb + kTile, n);
-    for (Eigen::Index ib = 0; ib <= jb; ib += kTile) {
-      for (Eigen::Index j = jb; j < je; ++j) {
-        double* col = d + j * n;
-        const Eigen::Index ie = std::min(ib + kTile, j);
-        for (Eigen::Index i = ib; i < ie; ++i) col[i] = d[i * n + j];
-      }
-    }
-  }
+// Grows a workspace to at least n doubles (never shrinks: the update allocates only while the
+// map grows past its largest size so far).
+double* workspace(std::vector<double>* w, std::size_t n) {
+  if (w->size() < n) w->resize(std::max(n, w->size() + w->size() / 2));
+  return w->data();
 }
 
 }  // namespace
@@ -50,9 +39,14 @@ void EkfSlam::reset(const Eigen::Vector3d& pose, const Eigen::Matrix3d& pose_cov
   x_.head<3>() = pose;
   x_(2) = wrapAngle(x_(2));
   x_.segment(3, k) = correction.mean.head(k);
-  P_ = Eigen::MatrixXd::Zero(3 + k, 3 + k);
-  P_.topLeftCorner<3, 3>() = 0.5 * (pose_cov + pose_cov.transpose());
-  P_.block(3, 3, k, k) = correction.sigma.head(k).cwiseAbs2().asDiagonal();
+  dim_ = 0;
+  upper_stale_ = false;
+  reserveCovariance(3 + k);
+  dim_ = 3 + k;
+  auto P = this->P();
+  P.setZero();
+  P.topLeftCorner<3, 3>() = 0.5 * (pose_cov + pose_cov.transpose());
+  P.block(3, 3, k, k) = correction.sigma.head(k).cwiseAbs2().asDiagonal();
   ids_.clear();
   index_of_.clear();
   next_id_ = 0;
@@ -66,17 +60,31 @@ Eigen::Vector2d EkfSlam::correction() const {
 
 Eigen::Matrix2d EkfSlam::correctionCovariance() const {
   Eigen::Matrix2d C = Eigen::Matrix2d::Zero();
-  C.topLeftCorner(k_, k_) = P_.block(3, 3, k_, k_);
+  C.topLeftCorner(k_, k_) = storedCovariance().block(3, 3, k_, k_);
   return C;
 }
 
 void EkfSlam::replacePose(const Eigen::Vector3d& pose, const Eigen::Matrix3d& pose_cov) {
   x_.head<3>() = pose;
   x_(2) = wrapAngle(x_(2));
-  P_.topLeftCorner<3, 3>() = 0.5 * (pose_cov + pose_cov.transpose());
-  const Eigen::Index n = P_.rows() - 3;
-  P_.topRightCorner(3, n).setZero();
-  P_.bottomLeftCorner(n, 3).setZero();
+  auto P = this->P();
+  P.topLeftCorner<3, 3>() = 0.5 * (pose_cov + pose_cov.transpose());
+  const Eigen::Index n = dim_ - 3;
+  P.topRightCorner(3, n).setZero();
+  P.bottomLeftCorner(n, 3).setZero();
+}
+
+void EkfSlam::mirrorLower() const {
+  mirrorLowerTriangle(MatrixView(store_.data(), dim_, dim_, Eigen::OuterStride<>(store_.rows())));
+  upper_stale_ = false;
+}
+
+void EkfSlam::reserveCovariance(Eigen::Index n) {
+  const Eigen::Index cap = store_.rows();
+  if (n <= cap) return;
+  Eigen::MatrixXd grown(std::max(n, cap + cap / 2), std::max(n, cap + cap / 2));
+  grown.topLeftCorner(dim_, dim_) = covariance();
+  store_.swap(grown);
 }
 
 int EkfSlam::indexOf(LandmarkId id) const {
@@ -92,16 +100,17 @@ bool EkfSlam::predict(const MotionStep& step) {
   x_.head<3>() = step.pose;
   x_(2) = wrapAngle(x_(2));
 
-  const Eigen::Matrix3d Pvv = P_.topLeftCorner<3, 3>();
+  auto P = this->P();
+  const Eigen::Matrix3d Pvv = P.topLeftCorner<3, 3>();
   Eigen::Matrix3d Pn = F * Pvv * F.transpose() + step.Q;
-  P_.topLeftCorner<3, 3>() = 0.5 * (Pn + Pn.transpose());
+  P.topLeftCorner<3, 3>() = 0.5 * (Pn + Pn.transpose());
 
   // Pose/map cross-covariance, one landmark at a time: fixed-size blocks, no temporaries.
-  const Eigen::Index n = P_.rows();
+  const Eigen::Index n = dim_;
   for (Eigen::Index r = 3; r < n; r += 2) {
-    const Eigen::Matrix<double, 3, 2> c = F * P_.block<3, 2>(0, r);
-    P_.block<3, 2>(0, r) = c;
-    P_.block<2, 3>(r, 0) = c.transpose();
+    const Eigen::Matrix<double, 3, 2> c = F * P.block<3, 2>(0, r);
+    P.block<3, 2>(0, r) = c;
+    P.block<2, 3>(r, 0) = c.transpose();
   }
   return true;
 }
@@ -123,17 +132,18 @@ bool EkfSlam::predictAugmented(const MotionStep& step) {
   N.topRightCorner(3, k_) = step.Qvc.leftCols(k_);
   N.bottomLeftCorner(k_, 3) = step.Qvc.leftCols(k_).transpose();
   N.bottomRightCorner(k_, k_) = step.Qc.topLeftCorner(k_, k_);
-  const Small Paa = P_.topLeftCorner(a, a);
+  auto P = this->P();
+  const Small Paa = P.topLeftCorner(a, a);
   Small Pn = A * Paa * A.transpose() + N;
-  P_.topLeftCorner(a, a) = 0.5 * (Pn + Pn.transpose());
+  P.topLeftCorner(a, a) = 0.5 * (Pn + Pn.transpose());
 
   x_.head<3>() = step.pose;
   x_(2) = wrapAngle(x_(2));
-  const Eigen::Index n = P_.rows();
+  const Eigen::Index n = dim_;
   for (Eigen::Index r = a; r < n; r += 2) {
-    const Eigen::Matrix<double, 3, 2> c = B * P_.block(0, r, a, 2);
-    P_.block<3, 2>(0, r) = c;
-    P_.block<2, 3>(r, 0) = c.transpose();
+    const Eigen::Matrix<double, 3, 2> c = B * P.block(0, r, a, 2);
+    P.block<3, 2>(0, r) = c;
+    P.block<2, 3>(r, 0) = c.transpose();
   }
   return true;
 }
@@ -152,7 +162,7 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   rows_.resize(m);
   hv_.resize(m);
   hm_.resize(m);
-  v_.resize(d);
+  Eigen::Map<Eigen::VectorXd> v(workspace(&v_, d), d);
   for (int i = 0; i < m; ++i) {
     const Pairing& p = pairings[i];
     const int idx = indexOf(p.id);
@@ -161,60 +171,77 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
     const Eigen::Vector2d z_hat =
         model.predict(xv, x_.segment<2>(rows_[i]), p.kind, &hv_[i], &hm_[i]);
     if (!z_hat.allFinite() || !hv_[i].allFinite() || !hm_[i].allFinite()) return false;
-    v_.segment<2>(2 * i) = RangeBearingModel::innovation(p.z, z_hat, p.kind);
+    v.segment<2>(2 * i) = RangeBearingModel::innovation(p.z, z_hat, p.kind);
   }
 
   // P H^T: each 2-row block of H has a pose part and one landmark part, so it costs O(n m).
-  pht_.resize(n, d);
+  auto P = this->P();
+  Eigen::Map<Eigen::MatrixXd> pht(workspace(&pht_, n * d), n, d);
   for (int i = 0; i < m; ++i) {
-    auto col = pht_.middleCols<2>(2 * i);
-    col.noalias() = P_.leftCols<3>() * hv_[i].transpose();
-    col.noalias() += P_.middleCols<2>(rows_[i]) * hm_[i].transpose();
+    auto col = pht.middleCols<2>(2 * i);
+    const Eigen::Index r = rows_[i];
+    col.noalias() = P.leftCols<3>() * hv_[i].transpose();
+    // Column r of P from the current part: row r of the lower triangle above the diagonal.
+    col.topRows(r).noalias() += P.block(r, 0, 2, r).transpose() * hm_[i].transpose();
+    col.bottomRows(n - r).noalias() += P.block(r, r, n - r, 2) * hm_[i].transpose();
   }
 
   // S = H P H^T + R, lower triangle of blocks (the Cholesky reads only that).
-  s_.resize(d, d);
+  Eigen::Map<Eigen::MatrixXd> s(workspace(&s_, d * d), d, d);
   for (int i = 0; i < m; ++i) {
     for (int j = 0; j <= i; ++j) {
-      Eigen::Matrix2d b = hv_[i] * pht_.block<3, 2>(0, 2 * j);
-      b.noalias() += hm_[i] * pht_.block<2, 2>(rows_[i], 2 * j);
+      Eigen::Matrix2d b = hv_[i] * pht.block<3, 2>(0, 2 * j);
+      b.noalias() += hm_[i] * pht.block<2, 2>(rows_[i], 2 * j);
       if (i == j) {
         b += pairings[i].R;
         b = 0.5 * (b + b.transpose()).eval();
       }
       if (!b.allFinite()) return false;
-      s_.block<2, 2>(2 * i, 2 * j) = b;
+      s.block<2, 2>(2 * i, 2 * j) = b;
     }
   }
 
-  // In place: s_ becomes L with S = L L^T.
-  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> llt(s_);
+  // In place: s becomes L with S = L L^T.
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> llt(s);
   if (llt.info() != Eigen::Success) return false;
 
   // W = P H^T L^-T, so K S K^T = W W^T and K v = W (L^-1 v).
-  llt.matrixU().solveInPlace<Eigen::OnTheRight>(pht_);
-  llt.matrixL().solveInPlace(v_);
-  dx_.noalias() = pht_ * v_;
-  if (!dx_.allFinite() || !pht_.allFinite()) return false;
+  llt.matrixU().solveInPlace<Eigen::OnTheRight>(pht);
+  llt.matrixL().solveInPlace(v);
+  Eigen::Map<Eigen::VectorXd> dx(workspace(&dx_, n), n);
+  dx.noalias() = pht * v;
+  if (!dx.allFinite() || !pht.allFinite()) return false;
   // A correction state's variance must stay positive (P_cc - W_c W_c^T): otherwise refuse the
   // update rather than leave a non-positive-definite filter.
   for (int i = 3; i < 3 + k_; ++i) {
-    if (!(P_(i, i) - pht_.row(i).squaredNorm() > 0.0)) {
+    if (!(P(i, i) - pht.row(i).squaredNorm() > 0.0)) {
       ++refusals_;
       return false;
     }
   }
 
-  x_ += dx_;
+  x_ += dx;
   x_(2) = wrapAngle(x_(2));
   for (int i = 0; i < k_; ++i) {
     const double c = x_(3 + i);
     x_(3 + i) = std::clamp(c, c_lower_(i), c_upper_(i));
     if (x_(3 + i) != c) ++clamps_;
   }
-  P_.selfadjointView<Eigen::Lower>().rankUpdate(pht_, -1.0);
-  mirrorLower(&P_);
-  if (nis) *nis = v_.squaredNorm();
+  // Lower triangle only (the floor: N^2 d flops); of the upper one, keep the vehicle rows and
+  // each landmark's 2 x 2 block current (O(n)), the rest waits for covariance().
+  lowerRankDowndate(P, pht);
+  const Eigen::Index a = 3 + k_;
+  P.topLeftCorner(a, a).triangularView<Eigen::StrictlyUpper>() = P.topLeftCorner(a, a).transpose();
+  P.block(0, a, a, n - a) = P.block(a, 0, n - a, a).transpose();
+  for (Eigen::Index r = a; r < n; r += 2) P(r, r + 1) = P(r + 1, r);
+  upper_stale_ = n > a;
+  const double rank_flops = rankDowndateFlops(n, d);
+  ++stats_.updates;
+  stats_.rank_flops += rank_flops;
+  stats_.flops += rank_flops + static_cast<double>(n) * d * (12.0 + d);
+  stats_.weighted_n += rank_flops * static_cast<double>(n);
+  stats_.weighted_d += rank_flops * static_cast<double>(d);
+  if (nis) *nis = v.squaredNorm();
   return true;
 }
 
@@ -227,17 +254,19 @@ LandmarkId EkfSlam::addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d&
   if (!m.allFinite() || !Gv.allFinite() || !Gz.allFinite()) return kNoLandmark;
 
   const Eigen::Index n = x_.size();
-  const Eigen::Matrix3d Pvv = P_.topLeftCorner<3, 3>();
+  const Eigen::Matrix3d Pvv = storedCovariance().topLeftCorner<3, 3>();
   Eigen::Matrix2d Pll = Gv * Pvv * Gv.transpose() + Gz * R * Gz.transpose();
   Pll = 0.5 * (Pll + Pll.transpose()).eval();
 
   x_.conservativeResize(n + 2);
   x_.tail<2>() = m;
-  P_.conservativeResize(n + 2, n + 2);
+  reserveCovariance(n + 2);
+  dim_ = n + 2;
+  auto P = this->P();
   // cov(m, x) = Gv cov(xv, x): only the pose rows of P are needed.
-  P_.block(n, 0, 2, n).noalias() = Gv * P_.topLeftCorner(3, n);
-  P_.block(0, n, n, 2) = P_.block(n, 0, 2, n).transpose();
-  P_.bottomRightCorner<2, 2>() = Pll;
+  P.block(n, 0, 2, n).noalias() = Gv * P.topLeftCorner(3, n);
+  P.block(0, n, n, 2) = P.block(n, 0, 2, n).transpose();
+  P.bottomRightCorner<2, 2>() = Pll;
 
   const LandmarkId id = next_id_++;
   index_of_[id] = static_cast<int>(ids_.size());
@@ -252,10 +281,12 @@ LandmarkId EkfSlam::insertLandmark(const Eigen::Vector2d& position, const Eigen:
   const Eigen::Index n = x_.size();
   x_.conservativeResize(n + 2);
   x_.tail<2>() = position;
-  P_.conservativeResize(n + 2, n + 2);
-  P_.block(n, 0, 2, n).setZero();
-  P_.block(0, n, n, 2).setZero();
-  P_.bottomRightCorner<2, 2>() = 0.5 * (cov + cov.transpose());
+  reserveCovariance(n + 2);
+  dim_ = n + 2;
+  auto P = this->P();
+  P.block(n, 0, 2, n).setZero();
+  P.block(0, n, n, 2).setZero();
+  P.bottomRightCorner<2, 2>() = 0.5 * (cov + cov.transpose());
   index_of_[id] = static_cast<int>(ids_.size());
   ids_.push_back(id);
   return id;
@@ -281,7 +312,11 @@ void EkfSlam::setState(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covar
   }
   x_ = mean;
   x_(2) = wrapAngle(x_(2));
-  P_ = covariance;
+  dim_ = 0;
+  upper_stale_ = false;
+  reserveCovariance(n);
+  dim_ = n;
+  P() = covariance;
   ids_ = ids;
   index_of_ = std::move(index_of);
   next_id_ = next;
@@ -294,13 +329,19 @@ bool EkfSlam::removeLandmark(LandmarkId id) {
   const Eigen::Index r = stateRow(idx);
   const Eigen::Index tail = n - r - 2;
 
-  // One repack into the smaller matrix (a size change reallocates anyway).
-  Eigen::MatrixXd P(n - 2, n - 2);
-  P.topLeftCorner(r, r) = P_.topLeftCorner(r, r);
-  P.topRightCorner(r, tail) = P_.topRightCorner(r, tail);
-  P.bottomLeftCorner(tail, r) = P_.bottomLeftCorner(tail, r);
-  P.bottomRightCorner(tail, tail) = P_.bottomRightCorner(tail, tail);
-  P_.swap(P);
+  // In place, no reallocation: rows below r move up by 2 in every column; columns right of
+  // r + 1 move left by 2. Columns are visited left to right, so nothing is overwritten before
+  // it has moved.
+  double* d = store_.data();
+  const Eigen::Index ld = store_.rows();
+  for (Eigen::Index c = 0; c < n; ++c) {
+    if (c == r || c == r + 1) continue;
+    const double* src = d + c * ld;
+    double* dst = d + (c < r ? c : c - 2) * ld;
+    if (dst != src) std::copy(src, src + r, dst);
+    std::copy(src + r + 2, src + n, dst + r);
+  }
+  dim_ = n - 2;
   x_.segment(r, tail) = x_.tail(tail).eval();
   x_.conservativeResize(n - 2);
 

@@ -298,7 +298,7 @@ Eigen::Matrix3d SlamPipeline::poseCovariance() const {
   Eigen::Matrix3d P = pending_.F * Pvv * pending_.F.transpose() + pending_.Q;
   if (const int k = pending_.corrections; k > 0) {
     // [F Fc] P_aa [F Fc]^T + Q: the cross and correction blocks of the vehicle part.
-    const Eigen::MatrixXd& Pf = ekf_.covariance();
+    const auto Pf = ekf_.storedCovariance();  // a view: its vehicle rows are current
     using Cols = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxCorrectionStates>;
     const Cols FPvc = pending_.F * Pf.block(0, 3, 3, k);
     const Cols Fc = pending_.Fc.leftCols(k);

@@ -814,6 +814,15 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   j["association_us_p99"] = number(quantile(assoc_us, 0.99));
   j["update_us_median"] = number(quantile(update_us, 0.5));
   j["update_us_p99"] = number(quantile(update_us, 0.99));
+  {
+    // The EKF update's arithmetic, for its floor (docs/benchmarks_vp.md, scripts/bench_vp.sh).
+    const UpdateStats& u = ekf.updateStats();
+    const double w = u.rank_flops > 0.0 ? 1.0 / u.rank_flops : 0.0;
+    j["update_flops"] = u.flops;
+    j["update_rank_flops"] = u.rank_flops;
+    j["update_rank_n"] = u.weighted_n * w;  // rank-flop-weighted state size N ...
+    j["update_rank_d"] = u.weighted_d * w;  // ... and measurement dimension d
+  }
   j["sensor_offset"] = {offset->x(), offset->y(), offset->z()};
   const Eigen::Vector3d final_pose = ekf.pose();
   j["final_pose"] = {final_pose.x(), final_pose.y(), final_pose.z()};

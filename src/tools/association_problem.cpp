@@ -264,7 +264,7 @@ AssociationProblem makeAssociationProblem(const EkfSlam& ekf, const RangeBearing
   p.state.resize(3 + n);
   p.state << ekf.mean().head(3), ekf.mean().tail(n);
   p.covariance.resize(3 + n, 3 + n);
-  const Eigen::MatrixXd& P = ekf.covariance();
+  const auto P = ekf.covariance();  // a view, no copy
   p.covariance << P.topLeftCorner(3, 3), P.topRightCorner(3, n), P.bottomLeftCorner(n, 3),
       P.bottomRightCorner(n, n);
   p.sensor_offset = model.sensorOffset();

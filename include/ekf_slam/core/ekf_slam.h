@@ -18,6 +18,7 @@
 #include "ekf_slam/core/motion_models.h"
 #include "ekf_slam/core/observation_model.h"
 #include "ekf_slam/core/odometry_correction.h"
+#include "ekf_slam/core/symmetric_rank_update.h"
 
 namespace ekf_slam {
 
@@ -32,6 +33,18 @@ struct Pairing {
   MeasurementKind kind = MeasurementKind::kRangeBearing;
 };
 
+/// Work done by EkfSlam::update, counted over the filter's life (kept over reset()).
+struct UpdateStats {
+  std::uint64_t updates = 0;  ///< batch updates applied
+  /// Flops of the update's arithmetic: the rank-d downdate of P (N^2 d with N the state size and
+  /// d = 2 x pairings), P H^T (10 N d), the triangular solve (N d^2) and the correction (2 N d).
+  double flops = 0.0;
+  double rank_flops = 0.0;  ///< of those, the rank downdates
+  /// Sums of N and d weighted by each update's rank flops: divided by rank_flops, the state size
+  /// and dimension at which the run does its rank updates (the size to benchmark the floor at).
+  double weighted_n = 0.0, weighted_d = 0.0;
+};
+
 class EkfSlam {
  public:
   EkfSlam();
@@ -44,9 +57,31 @@ class EkfSlam {
 
   // --- read access --------------------------------------------------------------------------
   const Eigen::VectorXd& mean() const { return x_; }
-  const Eigen::MatrixXd& covariance() const { return P_; }
+  /// P, complete (a view of the top-left corner of storage with spare capacity): hold it as
+  /// `auto` or ConstMatrixView, not as `const Eigen::MatrixXd&`, which would copy it. Valid until
+  /// the next call that changes the state. The update writes only the lower triangle; the first
+  /// call after it copies the lower triangle onto the upper one (O(n^2)): per-scan readers that
+  /// need only some blocks use storedCovariance() or the block accessors below.
+  ConstMatrixView covariance() const {
+    if (upper_stale_) mirrorLower();
+    return storedCovariance();
+  }
+  /// P as stored, not brought up to date: current are the lower triangle, the vehicle rows
+  /// (pose and correction states: rows 0 .. 2 + k, every column) and each landmark's 2 x 2
+  /// block; the rest of the upper triangle only after covariance().
+  ConstMatrixView storedCovariance() const {
+    return ConstMatrixView(store_.data(), dim_, dim_, Eigen::OuterStride<>(store_.rows()));
+  }
+  /// cov(x_a.., x_b..) for the 2-row blocks at state rows a and b, read from the current part.
+  Eigen::Matrix2d blockCovariance(int row_a, int row_b) const {
+    const ConstMatrixView P = storedCovariance();
+    return row_a >= row_b ? Eigen::Matrix2d(P.block<2, 2>(row_a, row_b))
+                          : Eigen::Matrix2d(P.block<2, 2>(row_b, row_a).transpose());
+  }
+  /// Rows and columns of storage reserved for P (grows by half when full).
+  Eigen::Index covarianceCapacity() const { return store_.rows(); }
   Eigen::Vector3d pose() const { return x_.head<3>(); }
-  Eigen::Matrix3d poseCovariance() const { return P_.topLeftCorner<3, 3>(); }
+  Eigen::Matrix3d poseCovariance() const { return storedCovariance().topLeftCorner<3, 3>(); }
 
   /// Number of odometry correction states k (0: the plain EKF).
   int correctionDim() const { return k_; }
@@ -68,8 +103,9 @@ class EkfSlam {
   int stateRow(int index) const { return 3 + k_ + 2 * index; }
   Eigen::Vector2d landmark(int index) const { return x_.segment<2>(stateRow(index)); }
   Eigen::Matrix2d landmarkCovariance(int index) const {
-    return P_.block<2, 2>(stateRow(index), stateRow(index));
+    return storedCovariance().block<2, 2>(stateRow(index), stateRow(index));
   }
+  const UpdateStats& updateStats() const { return stats_; }
 
   // --- filter steps -------------------------------------------------------------------------
   /// Prediction from a motion model step: pose <- step.pose,
@@ -79,17 +115,19 @@ class EkfSlam {
   /// correction states is not k.
   bool predict(const MotionStep& step);
 
-  /// Batch update with every pairing of one scan: x += K v, P -= K S K^T (symmetrised), S
-  /// factorised with Cholesky. Returns false (and leaves the state unchanged) when S is not
-  /// positive definite, a pairing names an unknown id, anything is not finite or a correction
-  /// state's variance would not stay positive. Correction states pushed past their bounds are
-  /// clamped (counted). Optionally returns the NIS v^T S^-1 v.
+  /// Batch update with every pairing of one scan: x += K v, P -= K S K^T (written to the lower
+  /// triangle; see covariance()), S factorised with Cholesky. No heap allocation once the
+  /// workspaces have grown to the largest map so far. Returns false (and leaves the state
+  /// unchanged) when S is not positive definite, a pairing names an unknown id, anything is not
+  /// finite or a correction state's variance would not stay positive. Correction states pushed past
+  /// their bounds are clamped (counted). Optionally returns the NIS v^T S^-1 v.
   bool update(const std::vector<Pairing>& pairings, const RangeBearingModel& model,
               double* nis = nullptr);
 
   /// Initialises a landmark from observation z with the inverse observation model and both of
-  /// its Jacobians. O(n) arithmetic (plus the copy of P into its grown storage). Returns its new
-  /// id, or kNoLandmark (state unchanged) when z, R or the result is not finite.
+  /// its Jacobians. O(n) arithmetic (plus, when the storage is full, one copy of P into storage
+  /// half as large again). Returns its new id, or kNoLandmark (state unchanged) when z, R or the
+  /// result is not finite.
   LandmarkId addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d& R,
                          const RangeBearingModel& model,
                          MeasurementKind kind = MeasurementKind::kRangeBearing);
@@ -121,9 +159,21 @@ class EkfSlam {
 
  private:
   bool predictAugmented(const MotionStep& step);
+  MatrixView P() {
+    return MatrixView(store_.data(), dim_, dim_, Eigen::OuterStride<>(store_.rows()));
+  }
+  /// Makes room for P of size n (keeping its contents), growing the storage geometrically so
+  /// that adding landmarks one by one copies P O(log n) times, not n times.
+  void reserveCovariance(Eigen::Index n);
+  /// Copies the lower triangle onto the upper one (the part the update leaves stale).
+  void mirrorLower() const;
 
   Eigen::VectorXd x_;
-  Eigen::MatrixXd P_;
+  // P is the top-left dim_ x dim_ corner of store_. Mutable: covariance() completes the upper
+  // triangle on demand (upper_stale_ after an update).
+  mutable Eigen::MatrixXd store_;
+  Eigen::Index dim_ = 0;
+  mutable bool upper_stale_ = false;
   std::vector<LandmarkId> ids_;
   std::unordered_map<LandmarkId, int> index_of_;
   LandmarkId next_id_ = 0;
@@ -131,11 +181,12 @@ class EkfSlam {
   Eigen::Vector2d c_lower_ = Eigen::Vector2d::Zero(), c_upper_ = Eigen::Vector2d::Zero();
   std::uint64_t clamps_ = 0, refusals_ = 0;
 
-  // Update workspaces, kept between calls to avoid reallocating them each scan.
-  Eigen::MatrixXd pht_;  // P H^T, then P H^T L^-T
-  Eigen::MatrixXd s_;    // S, then its Cholesky factor
-  Eigen::VectorXd v_;    // innovation, then L^-1 v
-  Eigen::VectorXd dx_;   // state correction
+  UpdateStats stats_;
+
+  // Update workspaces, grown only when too small: no heap allocation per scan. Views over them:
+  // P H^T then W = P H^T L^-T (N x d), S then its Cholesky factor (d x d), the innovation then
+  // L^-1 v (d), the state correction (N).
+  std::vector<double> pht_, s_, v_, dx_;
   std::vector<int> rows_;
   std::vector<Matrix23d> hv_;
   std::vector<Eigen::Matrix2d, Eigen::aligned_allocator<Eigen::Matrix2d>> hm_;

@@ -1,0 +1,101 @@
+// Dense symmetric rank-d update P -= W W^T: GFLOP/s of this machine at a given size, the rate
+// that sets the EKF update's floor in docs/benchmarks_vp.md (scripts/bench_vp.sh).
+//
+//   bench_rank_update [N d] [--repeat R]    (default: a grid of N = 250 .. 2000, d = 4 .. 16)
+//
+// Every variant is counted at N^2 d flops (a triangle-only update), so the rates compare times:
+//   triangle  Eigen's selfadjointView<Lower>().rankUpdate (lower triangle only): the floor;
+//   +mirror   the same plus a copy of the lower triangle onto the upper (the update before);
+//   panels    lowerRankDowndate (lower triangle in panels, what EkfSlam::update runs);
+//   full      a plain product over the whole matrix (2 N^2 d flops done).
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ekf_slam/core/symmetric_rank_update.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Best time of `repeat` runs of fn on a fresh copy of P0 (the copy is not timed).
+template <typename Fn>
+double bestSeconds(const Eigen::MatrixXd& P0, int repeat, Fn fn) {
+  double best = 1e30;
+  Eigen::MatrixXd P = P0;
+  for (int r = 0; r < repeat; ++r) {
+    P = P0;
+    const auto t0 = Clock::now();
+    fn(P);
+    best = std::min(best, std::chrono::duration<double>(Clock::now() - t0).count());
+  }
+  return best;
+}
+
+void run(Eigen::Index n, Eigen::Index d, int repeat) {
+  // A well-scaled W (a downdate by W W^T of P = I + W W^T keeps P positive definite).
+  const Eigen::MatrixXd W = Eigen::MatrixXd::Random(n, d) * 0.1;
+  Eigen::MatrixXd P0 = W * W.transpose();
+  P0.diagonal().array() += 1.0;
+  const double flops = ekf_slam::rankDowndateFlops(n, d);
+  const double tri = bestSeconds(P0, repeat, [&](Eigen::MatrixXd& P) {
+    P.selfadjointView<Eigen::Lower>().rankUpdate(W, -1.0);
+  });
+  const double mir = bestSeconds(P0, repeat, [&](Eigen::MatrixXd& P) {
+    P.selfadjointView<Eigen::Lower>().rankUpdate(W, -1.0);
+    ekf_slam::mirrorLowerTriangle(ekf_slam::MatrixView(P.data(), n, n, Eigen::OuterStride<>(n)));
+  });
+  const double pan = bestSeconds(P0, repeat, [&](Eigen::MatrixXd& P) {
+    ekf_slam::lowerRankDowndate(ekf_slam::MatrixView(P.data(), n, n, Eigen::OuterStride<>(n)), W);
+  });
+  const double full =
+      bestSeconds(P0, repeat, [&](Eigen::MatrixXd& P) { P.noalias() -= W * W.transpose(); });
+  std::printf("%6ld %4ld | %9.2f %9.2f %9.2f %9.2f\n", static_cast<long>(n), static_cast<long>(d),
+              flops / tri * 1e-9, flops / mir * 1e-9, flops / pan * 1e-9, flops / full * 1e-9);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  int repeat = 30;
+  std::vector<long> sizes;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--repeat" && i + 1 < args.size()) {
+      repeat = std::max(1, std::atoi(args[++i].c_str()));
+    } else if (args[i] == "-h" || args[i] == "--help") {
+      std::printf("usage: bench_rank_update [N d] [--repeat R]\n");
+      return 0;
+    } else {
+      char* end = nullptr;
+      const long v = std::strtol(args[i].c_str(), &end, 10);
+      if (end == args[i].c_str() || *end != '\0' || v <= 0) {
+        std::fprintf(stderr, "bench_rank_update: bad argument '%s' (N and d: positive)\n",
+                     args[i].c_str());
+        return 2;
+      }
+      sizes.push_back(v);
+    }
+  }
+  if (sizes.size() != 0 && sizes.size() != 2) {
+    std::fprintf(stderr, "bench_rank_update: give both N and d, or neither\n");
+    return 2;
+  }
+  std::printf("GFLOP/s at N^2 d flops, best of %d (Eigen %d.%d.%d, %s)\n", repeat,
+              EIGEN_WORLD_VERSION, EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION,
+              Eigen::SimdInstructionSetsInUse());
+  std::printf("%6s %4s | %9s %9s %9s %9s\n", "N", "d", "triangle", "+mirror", "panels", "full");
+  if (sizes.size() == 2) {
+    run(sizes[0], sizes[1], repeat);
+    return 0;
+  }
+  for (long n : {250L, 500L, 1000L, 2000L}) {
+    for (long d : {4L, 8L, 16L}) run(n, d, repeat);
+  }
+  return 0;
+}

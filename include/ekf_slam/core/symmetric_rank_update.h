@@ -1,0 +1,28 @@
+// Rank-d downdate P -= W W^T of the lower triangle of a dense symmetric matrix, for the EKF's
+// covariance update (docs/benchmarks_vp.md). ROS-free (Eigen only).
+#pragma once
+
+#include <Eigen/Core>
+
+namespace ekf_slam {
+
+/// A column-major view with a leading dimension of its own: the covariance lives in the top-left
+/// corner of a larger buffer so that it can grow without reallocating.
+using MatrixView = Eigen::Map<Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
+using ConstMatrixView = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
+
+/// P -= W W^T on the lower triangle (diagonal included) of an N x N P, W N x d; the strict upper
+/// triangle is not touched. N^2 d flops. In column panels (a triangular product on the diagonal
+/// block, a plain one below it) whose operands Eigen packs on the stack: no heap allocation.
+void lowerRankDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>& W);
+
+/// Copies the strict lower triangle of P onto the upper one (tiled so that the strided reads stay
+/// in cache): completes P after lowerRankDowndate.
+void mirrorLowerTriangle(MatrixView P);
+
+/// Flops of that downdate (N^2 d).
+inline double rankDowndateFlops(Eigen::Index n, Eigen::Index d) {
+  return static_cast<double>(n) * static_cast<double>(n) * static_cast<double>(d);
+}
+
+}  // namespace ekf_slam

@@ -53,3 +53,11 @@ if(CATKIN_ENABLE_TESTING)
   add_dependencies(test_node_beacons ekf_slam_node_main ekf_slam_extraction_plugins
                    ekf_slam_association_plugins)
 endif()
+
+# The node and the offline runner on the all-faults window (issue 15).
+if(CATKIN_ENABLE_TESTING)
+  add_rostest_gtest(test_node_faults test/node_faults.test test/test_node_faults.cpp)
+  target_include_directories(test_node_faults PRIVATE ${PROJECT_SOURCE_DIR}/test)
+  target_link_libraries(test_node_faults ekf_slam_offline_runner nlohmann_json::nlohmann_json)
+  add_dependencies(test_node_faults ekf_slam_node_main ekf_slam_association_plugins)
+endif()

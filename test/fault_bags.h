@@ -3,6 +3,7 @@
 // replaced by what a callback returns); byte faults overwrite the written file.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -42,6 +43,44 @@ inline void writeFaultyBag(const std::string& in, const std::string& out, const 
       dst.write(m.getTopic(), m.getTime(), m, m.getConnectionHeader());
     }
   }
+}
+
+/// Breaks a scan's geometry in one of four ways (`kind` % 4): 3x the beams for the same angles,
+/// an increment whose sign contradicts the angles, an absurd increment, a NaN angle_max.
+inline void breakGeometry(sensor_msgs::LaserScan& s, std::size_t kind) {
+  switch (kind % 4) {
+    case 0:
+      s.ranges.insert(s.ranges.end(), s.ranges.begin(), s.ranges.end());
+      s.ranges.insert(s.ranges.end(), s.ranges.begin(), s.ranges.begin() + s.ranges.size() / 2);
+      break;
+    case 1:
+      s.angle_increment = -s.angle_increment;
+      break;
+    case 2:
+      s.angle_increment = 1.0f;
+      break;
+    default:
+      s.angle_max = NAN;
+  }
+}
+
+/// Every message fault of the suite at once, on disjoint messages: scans with an empty and an
+/// unknown frame, a zero stamp, a broken geometry, duplicated; odometry with a zero stamp and a
+/// 1e300 m/s twist (the node-versus-runner check of docs/faults.md).
+inline Faults allFaults() {
+  return {[](sensor_msgs::LaserScan s, std::size_t i) {
+            if (i % 10 == 3) s.header.frame_id = "";
+            if (i % 10 == 7) s.header.frame_id = "front_laser";
+            if (i % 20 == 9) s.header.stamp = ros::Time();
+            if (i % 10 == 5) breakGeometry(s, i / 10);
+            if (i % 10 == 1) return std::vector<sensor_msgs::LaserScan>{s, s};
+            return std::vector<sensor_msgs::LaserScan>{s};
+          },
+          [](nav_msgs::Odometry o, std::size_t i) {
+            if (i % 50 == 9) o.header.stamp = ros::Time();
+            if (i % 100 == 50) o.twist.twist.linear.x = 1e300;
+            return std::vector<nav_msgs::Odometry>{o};
+          }};
 }
 
 inline std::vector<char> readBytes(const std::string& path) {

@@ -229,28 +229,12 @@ TEST(BagStructure, NotABagIsNamedAndAnOlderFormatIsLeftToRosbag) {
 
 TEST_F(BagFaults, InconsistentScansAreRejectedAndCounted) {
   // Every 10th scan broken in one of four ways (27 of 273).
-  const RunResult r =
-      runFaulty("geometry",
-                {[](sensor_msgs::LaserScan s, std::size_t i) {
-                   if (i % 10 == 5) {
-                     switch ((i / 10) % 4) {
-                       case 0:  // 3x the beams for the same angles
-                         s.ranges.insert(s.ranges.end(), s.ranges.begin(), s.ranges.end());
-                         s.ranges.insert(s.ranges.end(), s.ranges.begin(), s.ranges.begin() + 361);
-                         break;
-                       case 1:  // sign contradicts the angles
-                         s.angle_increment = -s.angle_increment;
-                         break;
-                       case 2:  // absurd increment
-                         s.angle_increment = 1.0f;
-                         break;
-                       default:
-                         s.angle_max = NAN;
-                     }
-                   }
-                   return std::vector<sensor_msgs::LaserScan>{s};
-                 },
-                 nullptr});
+  const RunResult r = runFaulty("geometry", {[](sensor_msgs::LaserScan s, std::size_t i) {
+                                               if (i % 10 == 5)
+                                                 fault_bags::breakGeometry(s, i / 10);
+                                               return std::vector<sensor_msgs::LaserScan>{s};
+                                             },
+                                             nullptr});
   EXPECT_EQ(counter(r, "inconsistent_scans"), 27u);
   EXPECT_NE(r.log.find("used for prediction only"), std::string::npos) << r.log;
   expectCloseToClean(r, 5);

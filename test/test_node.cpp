@@ -42,55 +42,18 @@
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
 #include "ros_test_wait.h"
+#include "rosbag_play.h"
 #include "test_files.h"
 
 namespace vp = ekf_slam::victoria_park;
 namespace fs = std::filesystem;
 using test_files::readFile;
+using test_files::RosbagPlay;
 using test_files::waitFor;
 
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-// `rosbag play` as a child process in its own process group.
-class RosbagPlay {
- public:
-  RosbagPlay(const std::string& bag, const std::string& rate) {
-    pid_ = fork();
-    if (pid_ == 0) {
-      setpgid(0, 0);
-      const char* path = std::getenv("PATH");
-      setenv("PATH", (std::string("/usr/bin:") + (path ? path : "")).c_str(), 1);
-      execlp("rosbag", "rosbag", "play", "-q", "--clock", "-d", "1", "-r", rate.c_str(),
-             bag.c_str(), static_cast<char*>(nullptr));
-      _exit(127);
-    }
-  }
-  ~RosbagPlay() {
-    if (pid_ <= 0) return;
-    kill(-pid_, SIGINT);
-    for (int i = 0; i < 50; ++i) {
-      if (waitpid(pid_, nullptr, WNOHANG) == pid_) return;
-      usleep(100000);
-    }
-    kill(-pid_, SIGKILL);
-    waitpid(pid_, nullptr, 0);
-  }
-  bool started() const { return pid_ > 0; }
-  /// True once it has exited (status in *code).
-  bool finished(int* code) {
-    if (pid_ <= 0) return true;
-    int status = 0;
-    if (waitpid(pid_, &status, WNOHANG) != pid_) return false;
-    *code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-    pid_ = -1;
-    return true;
-  }
-
- private:
-  pid_t pid_ = -1;
-};
 
 bool finite(const geometry_msgs::Pose& p) {
   return std::isfinite(p.position.x) && std::isfinite(p.position.y) &&

@@ -257,7 +257,8 @@ TEST(Recovery, KidnappedSimulatedWorldRecoversWithinTwoSeconds) {
   djnn->configure(MapParameterSource(sim::associatorParametersFor(world, "DJNN")));
   auto fgcbb = std::make_shared<FGCBB>();
   fgcbb->configure(MapParameterSource(sim::associatorParametersFor(world, "FGCBB")));
-  const RunMetrics m = runSimulation(world, world.default_seed, config, djnn, nullptr, nullptr, fgcbb);
+  const RunMetrics m =
+      runSimulation(world, world.default_seed, config, djnn, nullptr, nullptr, fgcbb);
   EXPECT_GE(m.lost_events, 1u);
   EXPECT_GE(m.relocalisations, 1u);
   EXPECT_EQ(m.wrong_relocalisations, 0u);

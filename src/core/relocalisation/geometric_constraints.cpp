@@ -71,10 +71,18 @@ double binaryStatistic(const Eigen::Vector2d& a, const Eigen::Matrix2d& cov_a,
 
 // --- map table -----------------------------------------------------------------------------------
 
+namespace {
+// Cell (ix, iy) -> one key: ix in the high half, iy's low 32 bits in the low half. Shifted as
+// unsigned: a left shift of a negative signed value is undefined (UBSan found it).
+std::int64_t cellKey(std::int64_t ix, std::int64_t iy) {
+  return static_cast<std::int64_t>((static_cast<std::uint64_t>(ix) << 32) ^
+                                   (static_cast<std::uint64_t>(iy) & 0xffffffffULL));
+}
+}  // namespace
+
 MapPairTable::CellKey MapPairTable::keyOf(const Eigen::Vector2d& p) const {
-  const auto ix = static_cast<std::int64_t>(std::floor(p.x() / radius_));
-  const auto iy = static_cast<std::int64_t>(std::floor(p.y() / radius_));
-  return (ix << 32) ^ (iy & 0xffffffffLL);
+  return cellKey(static_cast<std::int64_t>(std::floor(p.x() / radius_)),
+                 static_cast<std::int64_t>(std::floor(p.y() / radius_)));
 }
 
 void MapPairTable::build(const std::vector<MapLandmark>& map, double radius) {
@@ -128,7 +136,7 @@ void MapPairTable::query(const Eigen::Vector2d& center, double r, std::vector<in
   }
   for (std::int64_t ix = x0; ix <= x1; ++ix) {
     for (std::int64_t iy = y0; iy <= y1; ++iy) {
-      const auto it = cells_.find((ix << 32) ^ (iy & 0xffffffffLL));
+      const auto it = cells_.find(cellKey(ix, iy));
       if (it == cells_.end()) continue;
       for (const int j : it->second) {
         if ((landmarks_[j].position - center).squaredNorm() <= r * r) out->push_back(j);

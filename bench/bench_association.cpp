@@ -29,7 +29,7 @@
 #include "ekf_slam/core/association/nnjcbb.h"
 #include "ekf_slam/core/association/rrwsc.h"
 #include "ekf_slam/core/data_association.h"
-#include "ekf_slam/core/ekf_slam.h"
+#include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/landmark_index.h"
 
 namespace ekf_slam {

@@ -17,7 +17,7 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/symmetric_rank_update.h"
+#include "ekf_slam/core/filter/symmetric_rank_update.h"
 
 namespace {
 

@@ -12,7 +12,7 @@
 
 #include <benchmark/benchmark.h>
 
-#include "ekf_slam/core/observation_model.h"
+#include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "ekf_slam/core/relocalisation/gcbb.h"
 

@@ -14,7 +14,7 @@
 
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/relocalisation/rrwsc_relocaliser.h"
-#include "ekf_slam/core/simulator.h"
+#include "ekf_slam/core/simulation/simulator.h"
 
 int main(int argc, char** argv) {
   using namespace ekf_slam;

@@ -2,7 +2,7 @@
 #   evaluate --world NAME --runs 20 --associators ekf_slam/NN,ekf_slam/DJNN --out DIR
 
 add_library(ekf_slam_evaluate src/ros/evaluate.cpp)
-target_link_libraries(ekf_slam_evaluate PUBLIC ekf_slam_ros ekf_slam_tools ekf_slam_node)
+target_link_libraries(ekf_slam_evaluate PUBLIC ekf_slam_ros ekf_slam_tools ekf_slam_node ekf_slam_evaluation)
 add_dependencies(ekf_slam_evaluate ekf_slam_association_plugins)
 
 add_executable(evaluate src/nodes/evaluate.cpp)

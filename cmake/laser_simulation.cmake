@@ -1,12 +1,11 @@
 # Ray-casting laser with intensities and the `beacons` car park (ROS-free core), scored with
 # BeaconExtractor: docs/feature_extraction.md.
-target_sources(ekf_slam_core PRIVATE
-  ${PROJECT_SOURCE_DIR}/src/core/simulation/laser_scan_simulator.cpp)
+# (laser_scan_simulator.cpp is part of ekf_slam_evaluation.)
 
 if(CATKIN_ENABLE_TESTING)
   catkin_add_gtest(test_beacon_car_park ${PROJECT_SOURCE_DIR}/test/test_beacon_car_park.cpp)
   target_include_directories(test_beacon_car_park PRIVATE ${PROJECT_SOURCE_DIR}/test)
-  target_link_libraries(test_beacon_car_park ekf_slam_core)
+  target_link_libraries(test_beacon_car_park ekf_slam_evaluation)
   # `evaluate --world beacons` (ekf_slam_evaluate is defined in evaluate.cmake).
   catkin_add_gtest(test_evaluate_beacons ${PROJECT_SOURCE_DIR}/test/test_evaluate_beacons.cpp)
   target_include_directories(test_evaluate_beacons PRIVATE ${PROJECT_SOURCE_DIR}/test)

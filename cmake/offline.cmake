@@ -1,14 +1,13 @@
 # Offline bag runner, trajectory metrics, Victoria Park end to end (issue 4).
 #   ekf_slam_offline --bag FILE --out DIR [--params YAML] [--associator NAME] [--dump-problem SCAN]
 
-# Trajectory metrics are ROS-free: part of the core library.
-target_sources(ekf_slam_core PRIVATE ${PROJECT_SOURCE_DIR}/src/core/trajectory_metrics.cpp)
+# (Trajectory metrics are ROS-free: part of ekf_slam_evaluation.)
 
 # The runner feeds the bag through the node's conversions, InputSequencer and SlamPipeline.
 add_library(ekf_slam_offline_runner src/ros/offline_runner.cpp src/ros/checked_bag_reader.cpp)
 target_include_directories(ekf_slam_offline_runner PUBLIC include)
 target_link_libraries(ekf_slam_offline_runner
-  PUBLIC ekf_slam_conversions ekf_slam_ros ekf_slam_tools ekf_slam_node ${catkin_LIBRARIES}
+  PUBLIC ekf_slam_conversions ekf_slam_ros ekf_slam_tools ekf_slam_node ekf_slam_evaluation ${catkin_LIBRARIES}
   PRIVATE nlohmann_json::nlohmann_json)
 add_dependencies(ekf_slam_offline_runner ${PROJECT_NAME}_generate_messages_cpp
                  ekf_slam_association_plugins)
@@ -27,7 +26,7 @@ install(FILES config/victoria_park.yaml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTI
 
 if(CATKIN_ENABLE_TESTING)
   catkin_add_gtest(test_trajectory_metrics test/test_trajectory_metrics.cpp)
-  target_link_libraries(test_trajectory_metrics ekf_slam_core)
+  target_link_libraries(test_trajectory_metrics ekf_slam_evaluation)
 
   # Converts a Victoria Park window itself (skips without the data); runs the plugins and the
   # replay command, so both must be built.

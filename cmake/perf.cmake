@@ -1,6 +1,6 @@
 # The EKF update's performance (issue 14): the panel rank downdate, its reference test, storage
 # test and the rank-update benchmark.
-target_sources(ekf_slam_core PRIVATE ${PROJECT_SOURCE_DIR}/src/core/symmetric_rank_update.cpp)
+target_sources(ekf_slam_core PRIVATE ${PROJECT_SOURCE_DIR}/src/core/filter/symmetric_rank_update.cpp)
 
 # Dense rank-d update P -= W W^T at a given size: the GFLOP/s that set the floor of
 # docs/benchmarks_vp.md (scripts/bench_vp.sh runs it). A plain program, no dependency.

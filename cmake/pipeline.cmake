@@ -15,6 +15,6 @@ if(CATKIN_ENABLE_TESTING)
             test_recovery)
     catkin_add_gtest(${t} ${PROJECT_SOURCE_DIR}/test/${t}.cpp)
     target_include_directories(${t} PRIVATE ${PROJECT_SOURCE_DIR}/test)
-    target_link_libraries(${t} ekf_slam_core)
+    target_link_libraries(${t} ekf_slam_evaluation)  # some use simulated worlds
   endforeach()
 endif()

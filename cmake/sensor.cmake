@@ -7,5 +7,3 @@ if(CATKIN_ENABLE_TESTING)
   ekf_slam_gtest(test_cartesian_observations ekf_slam_core)
 endif()
 
-# Worlds for sensors that miss landmarks (simulator_sensor_worlds.cpp).
-target_sources(ekf_slam_core PRIVATE ${PROJECT_SOURCE_DIR}/src/core/simulator_sensor_worlds.cpp)

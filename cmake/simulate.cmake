@@ -4,7 +4,7 @@
 
 add_library(ekf_slam_simulation_bag src/ros/simulation_bag.cpp)
 target_include_directories(ekf_slam_simulation_bag PUBLIC include)
-target_link_libraries(ekf_slam_simulation_bag PUBLIC ekf_slam_core ekf_slam_conversions ${catkin_LIBRARIES})
+target_link_libraries(ekf_slam_simulation_bag PUBLIC ekf_slam_evaluation ekf_slam_conversions ${catkin_LIBRARIES})
 add_dependencies(ekf_slam_simulation_bag ${PROJECT_NAME}_generate_messages_cpp)
 
 # `rosrun ekf_slam simulate`

@@ -1,14 +1,11 @@
 # Simulated worlds with ground truth and the association / pose scorer (ROS-free core):
 # docs/simulation.md.
-target_sources(ekf_slam_core PRIVATE
-  ${PROJECT_SOURCE_DIR}/src/core/simulator.cpp
-  ${PROJECT_SOURCE_DIR}/src/core/association_metrics.cpp
-  ${PROJECT_SOURCE_DIR}/src/core/simulated_run.cpp)
+# (Sources: ekf_slam_evaluation in CMakeLists.txt.)
 
 if(CATKIN_ENABLE_TESTING)
   foreach(t test_simulator test_association_metrics test_simulated_run)
     catkin_add_gtest(${t} ${PROJECT_SOURCE_DIR}/test/${t}.cpp)
     target_include_directories(${t} PRIVATE ${PROJECT_SOURCE_DIR}/test)
-    target_link_libraries(${t} ekf_slam_core)
+    target_link_libraries(${t} ekf_slam_evaluation)
   endforeach()
 endif()

@@ -15,7 +15,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/observation_model.h"
+#include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/relocalisation/relocaliser.h"
 
 namespace ekf_slam {

@@ -7,8 +7,8 @@
 #include <Eigen/Cholesky>
 
 #include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/association_metrics.h"
-#include "ekf_slam/core/simulator.h"
+#include "ekf_slam/core/evaluation/association_metrics.h"
+#include "ekf_slam/core/simulation/simulator.h"
 
 namespace ekf_slam {
 namespace {

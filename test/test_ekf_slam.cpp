@@ -13,9 +13,9 @@
 #include <Eigen/Eigenvalues>
 
 #include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/ekf_slam.h"
-#include "ekf_slam/core/motion_models.h"
-#include "ekf_slam/core/observation_model.h"
+#include "ekf_slam/core/filter/ekf_slam.h"
+#include "ekf_slam/core/filter/motion_models.h"
+#include "ekf_slam/core/filter/observation_model.h"
 
 namespace ekf_slam {
 namespace {

@@ -13,9 +13,9 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/ekf_slam.h"
-#include "ekf_slam/core/observation_model.h"
-#include "ekf_slam/core/symmetric_rank_update.h"
+#include "ekf_slam/core/filter/ekf_slam.h"
+#include "ekf_slam/core/filter/observation_model.h"
+#include "ekf_slam/core/filter/symmetric_rank_update.h"
 
 // Counts malloc calls while counting is on (glibc: the program's malloc wins over libc's, and
 // operator new and Eigen's aligned_malloc both go through it). Not under AddressSanitizer, which

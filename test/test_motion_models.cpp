@@ -8,7 +8,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/motion_models.h"
+#include "ekf_slam/core/filter/motion_models.h"
 
 namespace ekf_slam {
 namespace {

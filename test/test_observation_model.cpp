@@ -7,7 +7,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/observation_model.h"
+#include "ekf_slam/core/filter/observation_model.h"
 
 namespace ekf_slam {
 namespace {

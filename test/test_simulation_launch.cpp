@@ -20,8 +20,8 @@
 
 #include "ekf_slam/AssociationStats.h"
 #include "ekf_slam/LandmarkArray.h"
-#include "ekf_slam/core/simulated_run.h"
-#include "ekf_slam/core/simulator.h"
+#include "ekf_slam/core/evaluation/simulated_run.h"
+#include "ekf_slam/core/simulation/simulator.h"
 #include "ekf_slam/ros/simulation_bag.h"
 #include "ros_test_wait.h"
 #include "test_files.h"

@@ -12,11 +12,11 @@
 #include <vector>
 
 #include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/association_metrics.h"
+#include "ekf_slam/core/evaluation/association_metrics.h"
 #include "ekf_slam/core/data_association.h"
-#include "ekf_slam/core/ekf_slam.h"
+#include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/landmark_index.h"
-#include "ekf_slam/core/simulator.h"
+#include "ekf_slam/core/simulation/simulator.h"
 
 namespace ekf_slam {
 namespace sim {

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/tree_extractor.h"
+#include "ekf_slam/core/feature_extraction/tree_extractor.h"
 #include "ekf_slam/data/victoria_park.h"
 #include "test_files.h"
 

@@ -16,7 +16,7 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 
-#include "ekf_slam/core/tree_extractor.h"
+#include "ekf_slam/core/feature_extraction/tree_extractor.h"
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/extractor_loader.h"
 #include "ekf_slam/tools/scan_filter_yaml.h"

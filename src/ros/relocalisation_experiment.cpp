@@ -14,7 +14,7 @@
 
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/data_association.h"
-#include "ekf_slam/core/simulated_run.h"  // kWrongRelocalisationAngle
+#include "ekf_slam/core/evaluation/simulated_run.h"  // kWrongRelocalisationAngle
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/tools/output_files.h"

@@ -28,11 +28,11 @@
 
 #include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/LandmarkObservationArray.h"
-#include "ekf_slam/core/motion_models.h"
+#include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/pose2d.h"
-#include "ekf_slam/core/simulated_run.h"
+#include "ekf_slam/core/evaluation/simulated_run.h"
 #include "ekf_slam/core/simulation/laser_scan_simulator.h"
-#include "ekf_slam/core/simulator.h"
+#include "ekf_slam/core/simulation/simulator.h"
 #include "ekf_slam/ros/conversions.h"
 #include "ekf_slam/ros/latched_topic.h"
 

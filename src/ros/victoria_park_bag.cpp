@@ -16,7 +16,7 @@
 #include <limits>
 #include <stdexcept>
 
-#include "ekf_slam/core/motion_models.h"
+#include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/conversions.h"
 #include "ekf_slam/ros/latched_topic.h"

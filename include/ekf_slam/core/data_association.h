@@ -15,9 +15,9 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/ekf_slam.h"
+#include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/landmark_index.h"
-#include "ekf_slam/core/observation_model.h"
+#include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/parameters.h"
 
 namespace ekf_slam {

@@ -20,7 +20,7 @@
 #include <utility>
 #include <vector>
 
-#include "ekf_slam/core/simulated_run.h"
+#include "ekf_slam/core/evaluation/simulated_run.h"
 
 namespace ekf_slam {
 

@@ -1,4 +1,4 @@
-// Writes a simulated world (ekf_slam/core/simulator.h, docs/simulation.md) into a ROS bag that
+// Writes a simulated world (ekf_slam/core/simulation/simulator.h, docs/simulation.md) into a ROS bag that
 // the node and the offline runner consume as they consume a real one, plus a parameter YAML:
 //
 //   rosrun ekf_slam simulate --world tiny --out /tmp/tiny.bag       # also writes /tmp/tiny.yaml
@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/simulated_run.h"
+#include "ekf_slam/core/evaluation/simulated_run.h"
 
 namespace ekf_slam {
 

@@ -11,8 +11,8 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/data_association.h"
-#include "ekf_slam/core/ekf_slam.h"
-#include "ekf_slam/core/observation_model.h"
+#include "ekf_slam/core/filter/ekf_slam.h"
+#include "ekf_slam/core/filter/observation_model.h"
 
 namespace ekf_slam {
 

@@ -1,4 +1,4 @@
-// The "ekf_slam/TreeExtractor" plugin: ACFR's trunk detector (core/tree_extractor.h, unchanged)
+// The "ekf_slam/TreeExtractor" plugin: ACFR's trunk detector (core/feature_extraction/tree_extractor.h, unchanged)
 // behind the FeatureExtractor interface. Observations carry the trunk diameter as descriptor and
 // a zero R, i.e. the pipeline's sigma_range / sigma_bearing, as before the interface existed.
 #pragma once
@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "ekf_slam/core/feature_extraction/feature_extractor.h"
-#include "ekf_slam/core/tree_extractor.h"
+#include "ekf_slam/core/feature_extraction/tree_extractor.h"
 
 namespace ekf_slam {
 

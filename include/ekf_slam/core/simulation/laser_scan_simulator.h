@@ -17,7 +17,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/feature_extraction/feature_extractor.h"
-#include "ekf_slam/core/simulator.h"
+#include "ekf_slam/core/simulation/simulator.h"
 
 namespace ekf_slam {
 namespace sim {

@@ -22,9 +22,9 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/association_metrics.h"
+#include "ekf_slam/core/evaluation/association_metrics.h"
 #include "ekf_slam/core/data_association.h"
-#include "ekf_slam/core/simulator.h"
+#include "ekf_slam/core/simulation/simulator.h"
 #include "ekf_slam/core/slam_pipeline.h"
 
 namespace ekf_slam {

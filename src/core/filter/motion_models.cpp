@@ -1,5 +1,5 @@
 // Vehicle motion models: Ackermann (Victoria Park), twist (exact arc), pose delta.
-#include "ekf_slam/core/motion_models.h"
+#include "ekf_slam/core/filter/motion_models.h"
 
 #include <cmath>
 

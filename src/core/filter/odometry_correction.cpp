@@ -1,5 +1,5 @@
 // Odometry correction states of the augmented EKF: corrected twist and its Jacobians.
-#include "ekf_slam/core/odometry_correction.h"
+#include "ekf_slam/core/filter/odometry_correction.h"
 
 #include <cmath>
 

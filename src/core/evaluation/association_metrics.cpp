@@ -1,5 +1,5 @@
 // Association scorer and pose metrics (ALGORITHMS.md section 9).
-#include "ekf_slam/core/association_metrics.h"
+#include "ekf_slam/core/evaluation/association_metrics.h"
 
 #include <cmath>
 #include <stdexcept>

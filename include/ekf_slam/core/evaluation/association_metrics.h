@@ -29,7 +29,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/data_association.h"
-#include "ekf_slam/core/ekf_slam.h"
+#include "ekf_slam/core/filter/ekf_slam.h"
 
 namespace ekf_slam {
 

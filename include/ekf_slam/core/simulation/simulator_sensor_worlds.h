@@ -3,7 +3,7 @@
 // in simulator.cpp's world list; values and reasoning in docs/simulation.md.
 #pragma once
 
-#include "ekf_slam/core/simulator.h"
+#include "ekf_slam/core/simulation/simulator.h"
 
 namespace ekf_slam {
 namespace sim {

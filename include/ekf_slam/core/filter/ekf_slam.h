@@ -15,10 +15,10 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/motion_models.h"
-#include "ekf_slam/core/observation_model.h"
-#include "ekf_slam/core/odometry_correction.h"
-#include "ekf_slam/core/symmetric_rank_update.h"
+#include "ekf_slam/core/filter/motion_models.h"
+#include "ekf_slam/core/filter/observation_model.h"
+#include "ekf_slam/core/filter/odometry_correction.h"
+#include "ekf_slam/core/filter/symmetric_rank_update.h"
 
 namespace ekf_slam {
 

@@ -1,5 +1,5 @@
 // EKF-SLAM state and filter steps on a dense covariance.
-#include "ekf_slam/core/ekf_slam.h"
+#include "ekf_slam/core/filter/ekf_slam.h"
 
 #include <algorithm>
 #include <stdexcept>

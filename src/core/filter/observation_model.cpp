@@ -1,5 +1,5 @@
 // Range-bearing and Cartesian observation models with a sensor offset on the vehicle.
-#include "ekf_slam/core/observation_model.h"
+#include "ekf_slam/core/filter/observation_model.h"
 
 #include <cmath>
 

@@ -1,6 +1,6 @@
 // Simulated worlds of the papers and their simulation. Layout and route choices:
 // docs/simulation.md.
-#include "ekf_slam/core/simulator.h"
+#include "ekf_slam/core/simulation/simulator.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +15,7 @@
 
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/simulation/laser_scan_simulator.h"
-#include "ekf_slam/core/simulator_sensor_worlds.h"
+#include "ekf_slam/core/simulation/simulator_sensor_worlds.h"
 
 namespace ekf_slam {
 namespace sim {

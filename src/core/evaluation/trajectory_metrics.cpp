@@ -1,4 +1,4 @@
-#include "ekf_slam/core/trajectory_metrics.h"
+#include "ekf_slam/core/evaluation/trajectory_metrics.h"
 
 #include <algorithm>
 #include <cmath>

@@ -25,9 +25,9 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/data_association.h"
-#include "ekf_slam/core/ekf_slam.h"
-#include "ekf_slam/core/motion_models.h"
-#include "ekf_slam/core/observation_model.h"
+#include "ekf_slam/core/filter/ekf_slam.h"
+#include "ekf_slam/core/filter/motion_models.h"
+#include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/sensor_model.h"
 
 namespace ekf_slam {

@@ -1,4 +1,4 @@
-#include "ekf_slam/core/simulated_run.h"
+#include "ekf_slam/core/evaluation/simulated_run.h"
 
 #include <chrono>
 #include <cmath>
@@ -13,7 +13,7 @@
 #include "ekf_slam/core/pipeline_config.h"
 #include "ekf_slam/core/pose2d.h"
 #include "ekf_slam/core/simulation/laser_scan_simulator.h"
-#include "ekf_slam/core/trajectory_metrics.h"
+#include "ekf_slam/core/evaluation/trajectory_metrics.h"
 
 namespace ekf_slam {
 namespace sim {

@@ -1,5 +1,5 @@
 // Worlds for sensors that miss landmarks. See simulator_sensor_worlds.h and docs/simulation.md.
-#include "ekf_slam/core/simulator_sensor_worlds.h"
+#include "ekf_slam/core/simulation/simulator_sensor_worlds.h"
 
 #include "ekf_slam/core/angles.h"
 

@@ -1,5 +1,5 @@
 // Lower-triangle rank-d downdate in column panels.
-#include "ekf_slam/core/symmetric_rank_update.h"
+#include "ekf_slam/core/filter/symmetric_rank_update.h"
 
 #include <algorithm>
 

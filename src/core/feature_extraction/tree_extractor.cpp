@@ -16,7 +16,7 @@
 //    on double rounding (angles (k*pi)/360, ranges cm/100), and the published Victoria Park
 //    detections follow that rounding (about 1.4 % of the detections depend on it), so we repeat
 //    the same arithmetic in the same order instead of resolving ties "cleanly".
-#include "ekf_slam/core/tree_extractor.h"
+#include "ekf_slam/core/feature_extraction/tree_extractor.h"
 
 #include <cstdio>
 #include <ostream>

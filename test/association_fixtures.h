@@ -25,8 +25,8 @@
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/data_association.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
-#include "ekf_slam/core/landmark_index.h"
 #include "ekf_slam/core/filter/observation_model.h"
+#include "ekf_slam/core/landmark_index.h"
 
 namespace ekf_slam {
 namespace assoc_test {

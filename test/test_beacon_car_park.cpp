@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/evaluation/simulated_run.h"
+#include "ekf_slam/core/evaluation/trajectory_metrics.h"
 #include "ekf_slam/core/feature_extraction/beacon_extractor.h"
 #include "ekf_slam/core/pose2d.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
 #include "ekf_slam/core/simulation/laser_scan_simulator.h"
-#include "ekf_slam/core/evaluation/trajectory_metrics.h"
 
 using namespace ekf_slam;
 

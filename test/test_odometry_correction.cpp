@@ -11,9 +11,9 @@
 
 #include "ekf_slam/core/association/djnn.h"
 #include "ekf_slam/core/association/nn.h"
+#include "ekf_slam/core/evaluation/simulated_run.h"
 #include "ekf_slam/core/filter/odometry_correction.h"
 #include "ekf_slam/core/parameters.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
 #include "ekf_slam/core/slam_pipeline.h"
 
 namespace ekf_slam {

@@ -11,8 +11,8 @@
 
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "ekf_slam/core/evaluation/simulated_run.h"
+#include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "ekf_slam/core/slam_pipeline.h"
 #include "relocalisation_fixtures.h"
 #include "test_files.h"

@@ -13,8 +13,8 @@
 #include <string>
 
 #include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/parameters.h"
 #include "ekf_slam/core/evaluation/simulated_run.h"
+#include "ekf_slam/core/parameters.h"
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/simulation_bag.h"
 #include "test_files.h"

@@ -9,8 +9,8 @@
 
 #include "ekf_slam/core/association/djnn.h"
 #include "ekf_slam/core/association/nn.h"
-#include "ekf_slam/core/parameters.h"
 #include "ekf_slam/core/evaluation/simulated_run.h"
+#include "ekf_slam/core/parameters.h"
 
 namespace ekf_slam {
 namespace {

@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/evaluation/association_metrics.h"
 #include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/evaluation/association_metrics.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/landmark_index.h"
 #include "ekf_slam/core/simulation/simulator.h"

@@ -28,9 +28,9 @@
 
 #include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/LandmarkObservationArray.h"
+#include "ekf_slam/core/evaluation/simulated_run.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/pose2d.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
 #include "ekf_slam/core/simulation/laser_scan_simulator.h"
 #include "ekf_slam/core/simulation/simulator.h"
 #include "ekf_slam/ros/conversions.h"

@@ -16,8 +16,8 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/filter/ekf_slam.h"
-#include "ekf_slam/core/landmark_index.h"
 #include "ekf_slam/core/filter/observation_model.h"
+#include "ekf_slam/core/landmark_index.h"
 #include "ekf_slam/core/parameters.h"
 
 namespace ekf_slam {

@@ -37,15 +37,15 @@
 
 #include "ekf_slam/core/chi2.h"
 #include "ekf_slam/core/data_association.h"
-#include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/feature_extraction/feature_extractor.h"
 #include "ekf_slam/core/feature_extraction/scan_filter_chain.h"
-#include "ekf_slam/core/landmark_index.h"
+#include "ekf_slam/core/feature_extraction/tree_extractor.h"
+#include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/filter/odometry_correction.h"
+#include "ekf_slam/core/landmark_index.h"
 #include "ekf_slam/core/relocalisation/relocaliser.h"
-#include "ekf_slam/core/feature_extraction/tree_extractor.h"
 
 namespace ekf_slam {
 

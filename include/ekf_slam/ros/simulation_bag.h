@@ -1,5 +1,6 @@
-// Writes a simulated world (ekf_slam/core/simulation/simulator.h, docs/simulation.md) into a ROS bag that
-// the node and the offline runner consume as they consume a real one, plus a parameter YAML:
+// Writes a simulated world (ekf_slam/core/simulation/simulator.h, docs/simulation.md) into a ROS
+// bag that the node and the offline runner consume as they consume a real one, plus a parameter
+// YAML:
 //
 //   rosrun ekf_slam simulate --world tiny --out /tmp/tiny.bag       # also writes /tmp/tiny.yaml
 //   rosrun ekf_slam ekf_slam_offline --bag /tmp/tiny.bag --params /tmp/tiny.yaml --out /tmp/run

@@ -9,11 +9,11 @@
 #include <utility>
 
 #include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/evaluation/trajectory_metrics.h"
 #include "ekf_slam/core/feature_extraction/beacon_extractor.h"
 #include "ekf_slam/core/pipeline_config.h"
 #include "ekf_slam/core/pose2d.h"
 #include "ekf_slam/core/simulation/laser_scan_simulator.h"
-#include "ekf_slam/core/evaluation/trajectory_metrics.h"
 
 namespace ekf_slam {
 namespace sim {

@@ -22,8 +22,8 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/evaluation/association_metrics.h"
 #include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/evaluation/association_metrics.h"
 #include "ekf_slam/core/simulation/simulator.h"
 #include "ekf_slam/core/slam_pipeline.h"
 

@@ -1,6 +1,7 @@
-// The "ekf_slam/TreeExtractor" plugin: ACFR's trunk detector (core/feature_extraction/tree_extractor.h, unchanged)
-// behind the FeatureExtractor interface. Observations carry the trunk diameter as descriptor and
-// a zero R, i.e. the pipeline's sigma_range / sigma_bearing, as before the interface existed.
+// The "ekf_slam/TreeExtractor" plugin: ACFR's trunk detector
+// (core/feature_extraction/tree_extractor.h, unchanged) behind the FeatureExtractor interface.
+// Observations carry the trunk diameter as descriptor and a zero R, i.e. the pipeline's sigma_range
+// / sigma_bearing, as before the interface existed.
 #pragma once
 
 #include <string>

@@ -16,7 +16,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/data_association.h"  // Observation
-#include "ekf_slam/core/filter/ekf_slam.h"          // LandmarkId
+#include "ekf_slam/core/filter/ekf_slam.h"   // LandmarkId
 #include "ekf_slam/core/parameters.h"
 
 namespace ekf_slam {

@@ -674,7 +674,13 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     int slot = seen[i].slot;
     if (slot < 0) slot = addTentative(seen[i].pos, seen[i].cov_obs + jitter, stamp);
     const double t = tentative_[slot].evidence;
-    if (t >= p_.admit_evidence - kEvidenceEps) {
+    // With P_D < 1 a hit is worth more than 1, so T reaches the threshold after fewer sightings
+    // than at P_D = 1; the static test still needs the paper's admit_evidence sightings of one
+    // static point (and the time they span) to tell a slow mover from a landmark. At P_D = 1,
+    // T >= admit_evidence already implies as many sightings since the last restart.
+    const bool enough_sightings =
+        !p_.static_test || tentative_[slot].sightings >= p_.admit_evidence;
+    if (t >= p_.admit_evidence - kEvidenceEps && enough_sightings) {
       result->decision[i] = Decision::kNew;
       pending_new_[i] = t;
       dropTentative(slot);  // now the pipeline's landmark; its counter starts in landmarkAdded()

@@ -1,6 +1,7 @@
-// DJNN's admission with P_D < 1: the P_D-aware score admits a feature after fewer sightings than
-// the paper's counter, but the static test (which tells a slow mover from a landmark) still needs
-// admit_evidence sightings of one static point. docs/djnn.md, "Admission with P_D < 1".
+// DJNN in the sensor worlds of issue 13 (docs/djnn.md, "Movers among landmarks a camera misses"):
+// admission with P_D < 1 (the P_D-aware score admits a feature after fewer sightings than the
+// paper's counter, but the static test still needs admit_evidence sightings of one static point),
+// and established landmarks that the bias test no longer removes when a mover passes by.
 #include <map>
 #include <string>
 
@@ -8,6 +9,7 @@
 
 #include "association_fixtures.h"
 #include "djnn_fixtures.h"
+#include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/association/djnn.h"
 
 namespace ekf_slam {
@@ -42,6 +44,39 @@ TEST(DJNNAdmission, StaticTestNeedsAdmitEvidenceSightingsAtLowDetectionProbabili
       3);
   EXPECT_EQ(admittedAt({{"admit_evidence", "4"}, {"static_test", "true"}}), 3);
   EXPECT_EQ(admittedAt({{"admit_evidence", "4"}}), 3);
+}
+
+// A landmark paired 12 times with zero-mean errors, then with returns walking away from it (a mover
+// passing close by): by default the bias test removes it; with bias_keep_pairings 10 only the
+// biased pairing is withdrawn and the landmark stays.
+TEST(DJNNAdmission, EstablishedLandmarkKeepsItsPlaceWhenAMoverPassesBy) {
+  auto run = [](const std::string& keep, int* withdrawn) {
+    Scene s;
+    s.pose_cov = assoc_test::poseCov(1e-3, 1e-3, 1e-5);
+    s.R = assoc_test::diag2(0.05, deg2rad(0.5));
+    const int a = s.addLandmark({10, 0}, assoc_test::diag2(0.01, 0.01));
+    s.build();
+    DJNN d = makeDjnn({{"bias_test", "true"},
+                       {"individual_probability", "0.999"},
+                       {"ambiguity_probability", "0.999"},
+                       {"bias_keep_pairings", keep}});
+    bool removed = false;
+    *withdrawn = 0;
+    for (int k = 1; k <= 20 && !removed; ++k) {
+      s.observations.clear();
+      s.truth.clear();
+      const double y = k <= 12 ? (k % 2 ? 0.05 : -0.05) : 0.05 * (k - 12);
+      s.observePoint({10.0, y}, nullptr, a);
+      const AssociationResult r = d.associate(s.context(0.2 * k));
+      removed = !r.remove.empty();
+      *withdrawn += r.decision[0] == Decision::kRejected;
+    }
+    return removed;
+  };
+  int withdrawn = 0;
+  EXPECT_TRUE(run("0", &withdrawn));
+  EXPECT_FALSE(run("10", &withdrawn));
+  EXPECT_GE(withdrawn, 1);
 }
 
 }  // namespace

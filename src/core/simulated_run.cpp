@@ -95,7 +95,12 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
   if (s.min_range > 0.0) p["min_range"] = text(s.min_range);
   const double pd =
       std::min(s.detectionProbability(s.min_range), s.detectionProbability(coveringRange(world)));
-  if (pd < 1.0) p["detection_probability"] = text(pd);
+  if (pd < 1.0) {
+    p["detection_probability"] = text(pd);
+    // Sparse detections let movers pass close to landmarks between sightings: a landmark with two
+    // bias windows of unbiased pairings stays when the bias test fires (docs/djnn.md).
+    p["bias_keep_pairings"] = "10";
+  }
   const double R = coveringRange(world);
   if (R < 15.0) p["range_margin"] = text(0.2 * R);
   if (s.polygon.size() >= 3) {

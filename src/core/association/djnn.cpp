@@ -87,6 +87,7 @@ void DJNN::configure(const ParameterSource& params) {
   p.bias_probability = r.probability("bias_probability", def.bias_probability);
   p.bias_window = r.inRange("bias_window", def.bias_window, 1.0, 1.0e6);
   p.bias_min_pairings = r.integer("bias_min_pairings", def.bias_min_pairings, 1, kMaxEvidence);
+  p.bias_keep_pairings = r.integer("bias_keep_pairings", def.bias_keep_pairings, 0, kMaxEvidence);
 
   p_ = p;
   gate_ = chi2Quantile(p_.individual_probability, 2);
@@ -418,6 +419,14 @@ void DJNN::updateMapEvidence(const AssociationContext& ctx, AssociationResult* r
       assign_[i] = -1;
       gated_[i] = 1;
       count_[k] = 0;
+      Bias& b = bias_[id];
+      if (p_.bias_keep_pairings > 0 && b.pairings >= p_.bias_keep_pairings) {
+        // Established by many unbiased pairings: something moving past it, not the landmark.
+        b = Bias();
+        b.pairings = p_.bias_keep_pairings;
+        ++stats_.biased_kept;
+        continue;
+      }
       result->remove.push_back(id);
       evidence_.erase(id);
       bias_.erase(id);

@@ -4,6 +4,7 @@ target_sources(ekf_slam_core PRIVATE ${PROJECT_SOURCE_DIR}/src/core/sensor_model
 if(CATKIN_ENABLE_TESTING)
   ekf_slam_gtest(test_sensor_model ekf_slam_core)
   ekf_slam_gtest(test_djnn_detection ekf_slam_core)
+  ekf_slam_gtest(test_djnn_admission ekf_slam_core)
   ekf_slam_gtest(test_cartesian_observations ekf_slam_core)
 endif()
 

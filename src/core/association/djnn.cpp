@@ -87,6 +87,7 @@ void DJNN::configure(const ParameterSource& params) {
   p.bias_probability = r.probability("bias_probability", def.bias_probability);
   p.bias_window = r.inRange("bias_window", def.bias_window, 1.0, 1.0e6);
   p.bias_min_pairings = r.integer("bias_min_pairings", def.bias_min_pairings, 1, kMaxEvidence);
+  p.bias_keep_pairings = r.integer("bias_keep_pairings", def.bias_keep_pairings, 0, kMaxEvidence);
 
   p_ = p;
   gate_ = chi2Quantile(p_.individual_probability, 2);
@@ -418,6 +419,14 @@ void DJNN::updateMapEvidence(const AssociationContext& ctx, AssociationResult* r
       assign_[i] = -1;
       gated_[i] = 1;
       count_[k] = 0;
+      Bias& b = bias_[id];
+      if (p_.bias_keep_pairings > 0 && b.pairings >= p_.bias_keep_pairings) {
+        // Established by many unbiased pairings: something moving past it, not the landmark.
+        b = Bias();
+        b.pairings = p_.bias_keep_pairings;
+        ++stats_.biased_kept;
+        continue;
+      }
       result->remove.push_back(id);
       evidence_.erase(id);
       bias_.erase(id);
@@ -674,7 +683,13 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     int slot = seen[i].slot;
     if (slot < 0) slot = addTentative(seen[i].pos, seen[i].cov_obs + jitter, stamp);
     const double t = tentative_[slot].evidence;
-    if (t >= p_.admit_evidence - kEvidenceEps) {
+    // With P_D < 1 a hit is worth more than 1, so T reaches the threshold after fewer sightings
+    // than at P_D = 1; the static test still needs the paper's admit_evidence sightings of one
+    // static point (and the time they span) to tell a slow mover from a landmark. At P_D = 1,
+    // T >= admit_evidence already implies as many sightings since the last restart.
+    const bool enough_sightings =
+        !p_.static_test || tentative_[slot].sightings >= p_.admit_evidence;
+    if (t >= p_.admit_evidence - kEvidenceEps && enough_sightings) {
       result->decision[i] = Decision::kNew;
       pending_new_[i] = t;
       dropTentative(slot);  // now the pipeline's landmark; its counter starts in landmarkAdded()

@@ -53,13 +53,20 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
       {"lost_field_of_view", text(std::min(world.sensor.field_of_view, 2.0 * M_PI))},
   };
   if (world.pose_delta_odometry) {
-    // The same per-step noise as the twist's, per metre of the step: sigma dt = (sigma / v) d.
+    // The simulator's noise on one increment of length d = v dt turning by a = w dt, with
+    // w = v tan(steer) / L: translation sigma_v dt = (sigma_v / v) d; rotation
+    // (tan(steer) / L) sigma_v dt + (v dt / (L cos^2 steer)) sigma_steer
+    //   = (sigma_v / v) a + (sigma_steer / L) d + tan(steer) sigma_steer a,
+    // bounded at the steering limit in the last term only. (twistNoiseFor's bound, read per metre,
+    // charged the turn-only speed term to every metre: 5x the heading noise on straights.)
     const double v = world.vehicle.speed;
+    const NoiseSpec& n = world.noise;
     p["odometry_mode"] = "pose_delta";
-    p["pose_delta_alpha_trans_per_trans"] = text(t.sigma_v / v + t.sigma_v_per_v);
-    p["pose_delta_alpha_rot_per_trans"] = text(t.sigma_w / v + t.sigma_w_per_v);
+    p["pose_delta_alpha_trans_per_trans"] = text(n.sigma_speed / v);
+    p["pose_delta_alpha_rot_per_trans"] = text(n.sigma_steer / world.vehicle.wheelbase);
     p["pose_delta_alpha_trans_per_rot"] = "0";
-    p["pose_delta_alpha_rot_per_rot"] = "0";
+    p["pose_delta_alpha_rot_per_rot"] =
+        text(n.sigma_speed / v + std::tan(world.vehicle.max_steer) * n.sigma_steer);
   }
   // What odometry_correction: wheel_factors needs to match the simulated wheels.
   if (world.noise.odometry_wheel_factors != Eigen::Vector2d::Ones())
@@ -88,7 +95,12 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
   if (s.min_range > 0.0) p["min_range"] = text(s.min_range);
   const double pd =
       std::min(s.detectionProbability(s.min_range), s.detectionProbability(coveringRange(world)));
-  if (pd < 1.0) p["detection_probability"] = text(pd);
+  if (pd < 1.0) {
+    p["detection_probability"] = text(pd);
+    // Sparse detections let movers pass close to landmarks between sightings: a landmark with two
+    // bias windows of unbiased pairings stays when the bias test fires (docs/djnn.md).
+    p["bias_keep_pairings"] = "10";
+  }
   const double R = coveringRange(world);
   if (R < 15.0) p["range_margin"] = text(0.2 * R);
   if (s.polygon.size() >= 3) {

@@ -44,6 +44,7 @@ class DJNN : public DataAssociation {
     std::uint64_t tentative_dropped = 0;
     std::uint64_t static_restarts = 0;  ///< tentative features restarted by the static test
     std::uint64_t biased_removed = 0;   ///< landmarks removed by the innovation-bias test
+    std::uint64_t biased_kept = 0;      ///< pairings withdrawn from established landmarks
   };
 
   /// Parameters (names as read in configure(); defaults in docs/djnn.md).
@@ -83,6 +84,10 @@ class DJNN : public DataAssociation {
     double bias_probability = 0.999;
     double bias_window = 5.0;
     int bias_min_pairings = 3;
+    /// A landmark with at least this many pairings is established: when the bias test fires on
+    /// it (a mover passing close by) only the pairing is withdrawn and its bias state restarted,
+    /// the landmark stays. 0 = off (every biased landmark is removed).
+    int bias_keep_pairings = 0;
   };
 
   DJNN();

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/association_metrics.h"
-#include "ekf_slam/core/simulated_run.h"
+#include "ekf_slam/core/evaluation/association_metrics.h"
+#include "ekf_slam/core/evaluation/simulated_run.h"
 
 namespace ekf_slam {
 namespace {

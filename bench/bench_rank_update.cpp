@@ -50,8 +50,10 @@ void run(Eigen::Index n, Eigen::Index d, int repeat) {
     P.selfadjointView<Eigen::Lower>().rankUpdate(W, -1.0);
     ekf_slam::mirrorLowerTriangle(ekf_slam::MatrixView(P.data(), n, n, Eigen::OuterStride<>(n)));
   });
+  std::vector<double> workspace;  // kept between calls, as EkfSlam keeps it
   const double pan = bestSeconds(P0, repeat, [&](Eigen::MatrixXd& P) {
-    ekf_slam::lowerRankDowndate(ekf_slam::MatrixView(P.data(), n, n, Eigen::OuterStride<>(n)), W);
+    ekf_slam::lowerRankDowndate(ekf_slam::MatrixView(P.data(), n, n, Eigen::OuterStride<>(n)), W,
+                                &workspace);
   });
   const double full =
       bestSeconds(P0, repeat, [&](Eigen::MatrixXd& P) { P.noalias() -= W * W.transpose(); });

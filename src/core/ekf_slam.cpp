@@ -229,7 +229,7 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   }
   // Lower triangle only (the floor: N^2 d flops); of the upper one, keep the vehicle rows and
   // each landmark's 2 x 2 block current (O(n)), the rest waits for covariance().
-  lowerRankDowndate(P, pht);
+  lowerRankDowndate(P, pht, &packed_w_);
   const Eigen::Index a = 3 + k_;
   P.topLeftCorner(a, a).triangularView<Eigen::StrictlyUpper>() = P.topLeftCorner(a, a).transpose();
   P.block(0, a, a, n - a) = P.block(a, 0, n - a, a).transpose();

@@ -4,6 +4,8 @@
 # processing loop and its stages, plus the run's landmarks and GPS RMSE; then the EKF update against
 # its floor: the update's flops counted in the run divided by the GFLOP/s of a dense rank update on
 # this machine (bench_rank_update at the run's flop-weighted state size N and dimension d).
+# **loop CPU** is the loop's CPU time (metrics.json loop_cpu_s): on a machine shared with other
+# jobs the wall time also counts their share of the CPUs, the CPU time much less so.
 #   scripts/bench_vp.sh [ASSOCIATOR ...]     (default: NN JCBB DJNN NNJCBB Hungarian RRWSC)
 # Env: RUNS (3), VP_BAG (default $EKF_SLAM_BUILD/vp.bag, converted from $VP_DATA if missing).
 set -eo pipefail
@@ -49,8 +51,8 @@ for n in names:
 
 print()
 print("| associator | update GFLOP | N, d (flop-weighted) | rank update [GFLOP/s] | floor [s] "
-      "| update [s] | update / floor | wall [s] | wall / floor |")
-print("|---|---|---|---|---|---|---|---|---|")
+      "| update [s] | update / floor | wall [s] | wall / floor | loop CPU [s] | CPU / floor |")
+print("|---|---|---|---|---|---|---|---|---|---|---|")
 for n in names:
     m = best[n]
     N, d = round(m["update_rank_n"]), max(1, round(m["update_rank_d"]))
@@ -60,5 +62,7 @@ for n in names:
     floor = m["update_flops"] / (gflops * 1e9)
     print(f"| {m['associator']} | {m['update_flops'] * 1e-9:.2f} | {N}, {d} | {gflops:.1f} "
           f"| {floor:.3f} | {m['update_time_s']:.3f} | {m['update_time_s'] / floor:.2f} "
-          f"| {m['wall_time_s']:.3f} | {m['wall_time_s'] / floor:.2f} |")
+          f"| {m['wall_time_s']:.3f} | {m['wall_time_s'] / floor:.2f} "
+          f"| {m.get('loop_cpu_s', float('nan')):.3f} "
+          f"| {m.get('loop_cpu_s', float('nan')) / floor:.2f} |")
 PY

@@ -32,10 +32,15 @@ start=$(date +%s)
 rosbag play -q --clock -d "${PLAY_DELAY:-0}" -r "$rate" "$bag" > "$work/play.log" 2>&1
 wall=$(( $(date +%s) - start ))
 sleep 3  # input_timeout: the last scans are processed
+rosservice call /ekf_slam/save_map "path: '$work/node_map.txt'" > "$work/save_map.log" 2>&1 ||
+  cat "$work/save_map.log" >&2
+# rosrun execs the node, so $node is its pid: fields 14 and 15 of stat are utime and stime.
+read -r utime stime < <(awk '{print $14, $15}' "/proc/$node/stat")
+cpu=$(awk "BEGIN{printf \"%.2f s user + %.2f s system\", $utime / $(getconf CLK_TCK), $stime / $(getconf CLK_TCK)}")
 kill -INT "$node"
 wait "$node" || true
 summary=$(grep "scans received" "$work/node.log" | tail -1)
-echo "played $bag at -r $rate in $wall s wall"
+echo "played $bag at -r $rate in $wall s wall; node CPU $cpu"
 echo "node: $summary"
 read -r scans odom < <(rosbag info -y -k topics "$bag" | /usr/bin/python3 -c '
 import sys, yaml
@@ -55,5 +60,21 @@ echo "scans: received $scans_in + missing (seq gaps) $scan_gaps + before the fir
 if (( odom_in + odom_gaps + odom_first != odom || scans_in + scan_gaps + scan_first != scans )); then
   echo "node_throughput.sh: messages lost without a count" >&2
   exit 1
+fi
+if [[ ${COMPARE_OFFLINE:-1} != 0 && -f $work/node_map.txt ]]; then
+  rosrun ekf_slam ekf_slam_offline --bag "$bag" --params "$EKF_SLAM_ROOT/config/victoria_park.yaml" \
+    --out "$work/offline" --no-plot --no-progress > "$work/offline.log" 2>&1
+  /usr/bin/python3 - "$work/node_map.txt" "$work/offline/map.txt" <<'PY'
+import math, sys
+def load(path):  # ~save_map format: id x y ... per line after the comments
+    return [tuple(map(float, l.split()[1:3])) for l in open(path)
+            if l.strip() and not l.startswith(("#", "ekf_slam_map"))]
+node, off = load(sys.argv[1]), load(sys.argv[2])
+dist = sorted(min(math.dist(p, q) for q in off) for p in node) if off else []
+pct = lambda f: dist[min(len(dist) - 1, int(f * len(dist)))] if dist else float("nan")
+print(f"map: node {len(node)} landmarks, offline {len(off)}; node to nearest offline landmark: "
+      f"median {pct(0.5):.3g} m, p95 {pct(0.95):.3g} m, max {dist[-1] if dist else float('nan'):.3g} m, "
+      f"{sum(d > 1.0 for d in dist)} farther than 1 m")
+PY
 fi
 rm -rf "$work"

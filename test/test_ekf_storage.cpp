@@ -122,8 +122,11 @@ TEST(EkfStorage, UpdateDoesNotAllocateOnceWarm) {
 TEST(EkfStorage, DowndateEqualsTheProductOnTheLowerTriangle) {
   std::mt19937 rng(3);
   std::normal_distribution<double> g;
+  std::vector<double> workspace;  // reused across sizes, as EkfSlam does
   for (const Eigen::Index n : {1, 7, 128, 129, 300, 1500}) {
-    for (const Eigen::Index d : {1, 2, 12}) {
+    // d = 130: more columns of W than one pass of the kernel takes.
+    for (const Eigen::Index d : {1, 2, 12, 130}) {
+      if (n * n * d > 300 * 300 * 130) continue;
       Eigen::MatrixXd W(n, d), A(n, n);
       for (Eigen::Index i = 0; i < W.size(); ++i) W(i) = 0.1 * g(rng);
       for (Eigen::Index i = 0; i < A.size(); ++i) A(i) = g(rng);
@@ -133,7 +136,7 @@ TEST(EkfStorage, DowndateEqualsTheProductOnTheLowerTriangle) {
       MatrixView P(store.data(), n, n, Eigen::OuterStride<>(n + 5));
       const Eigen::MatrixXd before = P;
       const Eigen::MatrixXd want = before - W * W.transpose();
-      lowerRankDowndate(P, W);
+      lowerRankDowndate(P, W, &workspace);
       const Eigen::MatrixXd lower = P.triangularView<Eigen::Lower>();
       const Eigen::MatrixXd want_lower = want.triangularView<Eigen::Lower>();
       EXPECT_LT((lower - want_lower).cwiseAbs().maxCoeff(), 1e-12) << n << " x " << d;

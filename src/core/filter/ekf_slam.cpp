@@ -2,6 +2,7 @@
 #include "ekf_slam/core/filter/ekf_slam.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -210,7 +211,9 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   llt.matrixL().solveInPlace(v);
   Eigen::Map<Eigen::VectorXd> dx(workspace(&dx_, n), n);
   dx.noalias() = pht * v;
-  if (!dx.allFinite() || !pht.allFinite()) return false;
+  // W finite: x * 0 is 0 for finite x, NaN otherwise; the sum vectorises, where allFinite()
+  // stops at the first non-finite element one scalar at a time (a tenth of update()'s own time).
+  if (!dx.allFinite() || !std::isfinite((pht.array() * 0.0).sum())) return false;
   // A correction state's variance must stay positive (P_cc - W_c W_c^T): otherwise refuse the
   // update rather than leave a non-positive-definite filter.
   for (int i = 3; i < 3 + k_; ++i) {
@@ -229,7 +232,7 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   }
   // Lower triangle only (the floor: N^2 d flops); of the upper one, keep the vehicle rows and
   // each landmark's 2 x 2 block current (O(n)), the rest waits for covariance().
-  lowerRankDowndate(P, pht);
+  lowerRankDowndate(P, pht, &packed_w_);
   const Eigen::Index a = 3 + k_;
   P.topLeftCorner(a, a).triangularView<Eigen::StrictlyUpper>() = P.topLeftCorner(a, a).transpose();
   P.block(0, a, a, n - a) = P.block(a, 0, n - a, a).transpose();

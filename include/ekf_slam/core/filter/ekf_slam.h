@@ -185,8 +185,8 @@ class EkfSlam {
 
   // Update workspaces, grown only when too small: no heap allocation per scan. Views over them:
   // P H^T then W = P H^T L^-T (N x d), S then its Cholesky factor (d x d), the innovation then
-  // L^-1 v (d), the state correction (N).
-  std::vector<double> pht_, s_, v_, dx_;
+  // L^-1 v (d), the state correction (N), W copied in the rank downdate's tile order (N x d).
+  std::vector<double> pht_, s_, v_, dx_, packed_w_;
   std::vector<int> rows_;
   std::vector<Matrix23d> hv_;
   std::vector<Eigen::Matrix2d, Eigen::aligned_allocator<Eigen::Matrix2d>> hm_;

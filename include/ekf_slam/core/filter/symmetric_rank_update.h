@@ -2,6 +2,8 @@
 // covariance update (docs/benchmarks_vp.md). ROS-free (Eigen only).
 #pragma once
 
+#include <vector>
+
 #include <Eigen/Core>
 
 namespace ekf_slam {
@@ -12,9 +14,12 @@ using MatrixView = Eigen::Map<Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
 using ConstMatrixView = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
 
 /// P -= W W^T on the lower triangle (diagonal included) of an N x N P, W N x d; the strict upper
-/// triangle is not touched. N^2 d flops. In column panels (a triangular product on the diagonal
-/// block, a plain one below it) whose operands Eigen packs on the stack: no heap allocation.
-void lowerRankDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>& W);
+/// triangle is not touched. N^2 d flops, in register tiles of its own (faster here than Eigen's
+/// triangular product, docs/benchmarks_vp.md). W is first copied into `workspace` (grown when too
+/// small, never shrunk: no heap allocation once it has reached the largest N; a temporary when
+/// null).
+void lowerRankDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>& W,
+                       std::vector<double>* workspace = nullptr);
 
 /// Copies the strict lower triangle of P onto the upper one (tiled so that the strided reads stay
 /// in cache): completes P after lowerRankDowndate.

@@ -546,7 +546,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     update_us.push_back(1e6 * r.update_s);
     const Eigen::Vector3d x = pipeline.pose();
     const Eigen::Matrix3d P = pipeline.poseCovariance();
-    const EkfSlam& filter = pipeline.ekf();  // current after a scan (nothing pending)
+    // Pose and correction states only: activeEkf() does not bring a compressed filter up to date.
+    const EkfSlam& filter = pipeline.activeEkf();
     poses.push_back({r.stamp, x, P.diagonal(), filter.correction(),
                      filter.correctionCovariance().diagonal().cwiseSqrt()});
     laser_track.push_back({r.stamp, pipeline.observationModel().sensorPose(x).head<2>()});
@@ -700,6 +701,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   const auto t_write = Clock::now();
   {
     std::ofstream traj = openOutput(o.out_dir + "/trajectory.csv");
+    traj.precision(17);  // doubles round-trip: runs can be compared to rounding (bench_cekf.sh)
     // Odometry correction states (AEKF), when configured: estimate and std dev columns.
     const std::vector<std::string> names = pipeline.odometryCorrection().names();
     traj << "stamp,x,y,yaw,var_x,var_y,var_yaw";
@@ -737,6 +739,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   const EkfSlam& ekf = pipeline.ekf();
   {
     std::ofstream lm = openOutput(o.out_dir + "/landmarks.csv");
+    lm.precision(17);
     lm << "id,x,y,var_x,cov_xy,var_y,diameter,times_observed\n";
     for (std::size_t k = 0; k < ekf.numLandmarks(); ++k) {
       const LandmarkId id = ekf.landmarkIds()[k];

@@ -826,6 +826,21 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     j["update_rank_n"] = u.weighted_n * w;  // rank-flop-weighted state size N ...
     j["update_rank_d"] = u.weighted_d * w;  // ... and measurement dimension d
   }
+  if (const CompressedEkf* c = pipeline.compressedEkf()) {
+    // filter cekf (docs/cekf.md): its areas and global updates.
+    const CompressedEkfStats& s = c->stats();
+    j["cekf"] = {{"areas", s.phases},
+                 {"compressed_areas", s.compressed_phases},
+                 {"global_updates", s.global_updates},
+                 {"closed_grown", s.grown},
+                 {"closed_landmark_in_reach", s.landmark_in_reach},
+                 {"closed_pairing_outside", s.pairing_outside},
+                 {"closed_flush", s.flushes},
+                 {"global_update_s", s.global_update_s},
+                 {"global_update_flops", s.global_update_flops},
+                 {"active_update_flops", c->activeUpdateFlops()},
+                 {"max_active_states", s.max_active_states}};
+  }
   j["sensor_offset"] = {offset->x(), offset->y(), offset->z()};
   const Eigen::Vector3d final_pose = ekf.pose();
   j["final_pose"] = {final_pose.x(), final_pose.y(), final_pose.z()};

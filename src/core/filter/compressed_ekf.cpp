@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 namespace ekf_slam {
 
@@ -28,12 +29,17 @@ void CompressedEkf::openPhase(const std::vector<LandmarkId>& extra) {
   active_.clear();
   rows_dirty_ = true;
   vehicle_ = 3 + g.correctionDim();
+  // The area is the stretch of area_size ahead of the vehicle (a sensor sees ahead, and a
+  // vehicle mostly keeps going): A is every landmark within reach + margin of it.
   centre_ = g.pose().head<2>();
-  const double h = 0.5 * p_.area_size + p_.reach + p_.margin;
+  const Eigen::Vector2d ahead(std::cos(g.pose()(2)), std::sin(g.pose()(2)));
+  const double h = p_.reach + p_.margin;
   std::vector<int> a, b;  // landmark indices of A and B, global order
   for (std::size_t k = 0; k < g.numLandmarks(); ++k) {
     const int i = static_cast<int>(k);
-    const bool near = (g.landmark(i) - centre_).cwiseAbs().maxCoeff() <= h;
+    const Eigen::Vector2d d = g.landmark(i) - centre_;
+    const double t = std::clamp(d.dot(ahead), 0.0, p_.area_size);
+    const bool near = (d - t * ahead).norm() <= h;
     const bool named = std::find(extra.begin(), extra.end(), g.landmarkIds()[k]) != extra.end();
     (near || named ? a : b).push_back(i);
   }
@@ -262,7 +268,7 @@ bool CompressedEkf::prepare(const LandmarkIndex& index, const Eigen::Vector2d& s
   if (!open_) return false;
   if (!compressed_) {
     // Nothing is stale: the choice is made again around the vehicle once it left its area.
-    if ((g_->pose().head<2>() - centre_).cwiseAbs().maxCoeff() > 0.5 * p_.area_size) open_ = false;
+    if ((g_->pose().head<2>() - centre_).norm() > 0.5 * p_.area_size) open_ = false;
     return false;
   }
   // New landmarks join A: once it has grown well past its size at the opening, a new area

@@ -27,9 +27,8 @@
 namespace ekf_slam {
 
 struct CompressedEkfParams {
-  /// Side of the square, centred on the vehicle when an area opens, whose landmarks within the
-  /// sensing reach are in A: A holds every landmark within area_size / 2 + reach + margin
-  /// (infinity norm) of the centre [m].
+  /// Length of the stretch ahead of the vehicle (from its position and heading when an area
+  /// opens) whose surroundings form A: every landmark within reach + margin of that segment [m].
   double area_size = 50.0;
   /// A landmark outside A within reach + margin of the sensor forces a global update [m].
   double margin = 10.0;
@@ -114,7 +113,7 @@ class CompressedEkf {
   CompressedEkfStats stats_;
   bool open_ = false;
   bool compressed_ = false;
-  Eigen::Vector2d centre_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d centre_ = Eigen::Vector2d::Zero();  // vehicle position at the opening
   std::unordered_set<LandmarkId> active_;
   EkfSlam local_;
   int vehicle_ = 3;                // vehicle states (3 + correction states)

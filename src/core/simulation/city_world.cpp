@@ -21,7 +21,7 @@ World cityWorld() {
   w.name = "city";
   w.description =
       "11 x 11 streets 150 m apart, ~12 000 landmarks on both sides every 5 m, a 10 m/s car "
-      "driving every street once (~37 km, an hour), 30 m 180 deg sensor at 10 Hz";
+      "driving every street once (36 km, an hour), 30 m 180 deg sensor at 10 Hz";
   const double extent = (kStreets - 1) * kBlock;
   w.area_min = {-30.0, -30.0};
   w.area_max = {extent + 30.0, extent + 30.0};

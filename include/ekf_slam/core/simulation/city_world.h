@@ -10,7 +10,7 @@ namespace sim {
 
 /// 11 x 11 streets 150 m apart (1.5 x 1.5 km), trees / poles on both sides every 5 m, a 10 m/s
 /// car with a 30 m, 180 deg range-bearing sensor at 10 Hz driving every street once (about
-/// 37 km, an hour).
+/// 36 km, an hour).
 World cityWorld();
 
 }  // namespace sim

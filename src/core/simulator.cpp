@@ -14,8 +14,8 @@
 #include <Eigen/Cholesky>
 
 #include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/simulation/laser_scan_simulator.h"
 #include "ekf_slam/core/simulation/city_world.h"
+#include "ekf_slam/core/simulation/laser_scan_simulator.h"
 #include "ekf_slam/core/simulator_sensor_worlds.h"
 
 namespace ekf_slam {

@@ -77,7 +77,7 @@ bool sameRecording(const Recording& a, const Recording& b) {
 
 TEST(Worlds, EveryNameBuildsAndValidates) {
   const std::vector<std::string> names = worldNames();
-  EXPECT_EQ(names.size(), 8u + 10u + 10u + 10u);  // 8: + beacons, arena, fiducials
+  EXPECT_EQ(names.size(), 9u + 10u + 10u + 10u);  // 9: + beacons, arena, fiducials, city
   for (const std::string& n : names) {
     SCOPED_TRACE(n);
     const World w = makeWorld(n);

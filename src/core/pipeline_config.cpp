@@ -109,6 +109,11 @@ void PipelineConfig::validate() const {
   count(lost_max_scans, "lost_max_scans");
   requireParameter(lost_nis_probability > 0.0 && lost_nis_probability < 1.0, "lost_nis_probability",
                    "must lie in (0, 1)", lost_nis_probability);
+  if (filter != "ekf" && filter != "cekf") {
+    throw ParameterError("parameter filter: must be one of {ekf, cekf}, got '" + filter + "'");
+  }
+  positive(cekf_area_size, "cekf_area_size");
+  nonNegative(cekf_margin, "cekf_margin");
 }
 
 PipelineConfig readPipelineConfig(const ParameterSource& params) {
@@ -195,6 +200,9 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_nis_scans = r.integer("lost_nis_scans", c.lost_nis_scans, 0, 100000);
   c.lost_max_scans = r.integer("lost_max_scans", c.lost_max_scans, 0, 100000);
   c.lost_nis_probability = r.probability("lost_nis_probability", c.lost_nis_probability);
+  c.filter = r.text("filter", c.filter, {"ekf", "cekf"});
+  c.cekf_area_size = r.positive("cekf_area_size", c.cekf_area_size);
+  c.cekf_margin = r.nonNegative("cekf_margin", c.cekf_margin);
 
   c.validate();  // cross-field checks; the names are the parameter names
   return c;

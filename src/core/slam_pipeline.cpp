@@ -60,6 +60,13 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
   config_.validate();
   if (!associator_) throw std::invalid_argument("SlamPipeline: no associator given");
   nis_chi2_ = Chi2Table(config_.lost_nis_probability, 64);
+  if (config_.filter == "cekf") {
+    CompressedEkfParams p;
+    p.area_size = config_.cekf_area_size;
+    p.margin = config_.cekf_margin;
+    p.reach = config_.max_observation_range;
+    cekf_ = std::make_unique<CompressedEkf>(&ekf_, p);
+  }
   reset();
   counters_.resets = 0;
 }
@@ -67,6 +74,7 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
 void SlamPipeline::reset() {
   const Eigen::Vector3d s = config_.initial_pose_sigma;
   ekf_.reset(config_.initial_pose, s.cwiseProduct(s).asDiagonal(), correction_.prior());
+  if (cekf_) cekf_->reset();
   index_.clear();
   index_.sync(ekf_);
   info_.clear();
@@ -100,6 +108,7 @@ bool SlamPipeline::requestRelocalisation() {
 void SlamPipeline::injectPoseJump(const Eigen::Vector3d& delta) {
   if (!delta.allFinite()) return;
   applyPendingMotion();
+  if (cekf_) cekf_->flush();
   ekf_.setPose(ekf_.pose() + delta);
 }
 
@@ -196,7 +205,7 @@ void SlamPipeline::discardRecent(ScanReport* report) {
     if (recent(id)) ids.push_back(id);
   }
   for (const LandmarkId id : ids) {
-    if (ekf_.removeLandmark(id)) {
+    if (cekf_ ? cekf_->removeLandmark(id) : ekf_.removeLandmark(id)) {
       info_.erase(id);
       report->removed.push_back(id);
       ++counters_.discarded_landmarks;
@@ -276,10 +285,14 @@ void SlamPipeline::applyRelocalisation(const RelocalisationResult& r, ScanReport
     if (r.landmark[i] != kNoLandmark && ekf_.contains(r.landmark[i])) a.pair(i, r.landmark[i]);
   }
   // The old pose is forgotten; the update with the pairings re-derives it, correlated with the
-  // map as it should be (kRelocalisedPriorInflation).
+  // map as it should be (kRelocalisedPriorInflation). filter cekf: the whole state first.
+  if (cekf_) cekf_->flush();
   ekf_.replacePose(r.pose, kRelocalisedPriorInflation * r.covariance);
   applyAssociation(report);
-  if (!report->update_ok) ekf_.replacePose(r.pose, r.covariance);  // uncorrelated, still valid
+  if (!report->update_ok) {
+    if (cekf_) cekf_->flush();
+    ekf_.replacePose(r.pose, r.covariance);  // uncorrelated, still valid
+  }
   ++counters_.relocalisations;
   report->relocalised = true;
   lost_ = false;
@@ -288,6 +301,7 @@ void SlamPipeline::applyRelocalisation(const RelocalisationResult& r, ScanReport
 
 void SlamPipeline::setSensorOffset(const Eigen::Vector3d& offset) {
   model_.setSensorOffset(offset);
+  if (cekf_) cekf_->setReach(config_.max_observation_range + offset.head<2>().norm());
 }
 
 // --- prediction ----------------------------------------------------------------------------------
@@ -310,7 +324,11 @@ Eigen::Matrix3d SlamPipeline::poseCovariance() const {
 void SlamPipeline::applyPendingMotion() const {
   if (pending_steps_ == 0) return;
   // Steps are checked when composed, so this cannot fail.
-  ekf_.predict(pending_);
+  if (cekf_) {
+    cekf_->predict(pending_);
+  } else {
+    ekf_.predict(pending_);
+  }
   pending_steps_ = 0;
 }
 
@@ -638,6 +656,11 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
 
   // Association, on the predicted state.
   index_.sync(ekf_);
+  // filter cekf: the associators read only the active area's entries, so a landmark outside
+  // it within their reach brings everything up to date first (docs/cekf.md).
+  if (cekf_ && cekf_->prepare(index_, model_.sensorPose(ekf_.pose()).head<2>(),
+                              config_.max_observation_range + config_.cekf_margin))
+    index_.sync(ekf_);
   const auto t0 = std::chrono::steady_clock::now();
   {
     const AssociationContext context(ekf_, model_, index_, obs, stamp);
@@ -673,7 +696,8 @@ void SlamPipeline::applyAssociation(ScanReport* report) {
       pairings_.push_back(Pairing{result.landmark[i], obs[i].z, obs[i].R, obs[i].kind});
   }
   report->nis_dof = 2 * static_cast<int>(pairings_.size());
-  report->update_ok = ekf_.update(pairings_, model_, &report->nis);
+  report->update_ok = cekf_ ? cekf_->update(pairings_, model_, &report->nis)
+                            : ekf_.update(pairings_, model_, &report->nis);
   counters_.clamped_corrections = ekf_.correctionClamps();
   counters_.refused_correction_updates = ekf_.correctionRefusals();
   if (!report->update_ok) {
@@ -697,7 +721,8 @@ void SlamPipeline::applyAssociation(ScanReport* report) {
   // 2. New landmarks, from the updated pose.
   for (std::size_t i = 0; i < n; ++i) {
     if (result.decision[i] != Decision::kNew) continue;
-    const LandmarkId id = ekf_.addLandmark(obs[i].z, obs[i].R, model_, obs[i].kind);
+    const LandmarkId id = cekf_ ? cekf_->addLandmark(obs[i].z, obs[i].R, model_, obs[i].kind)
+                                : ekf_.addLandmark(obs[i].z, obs[i].R, model_, obs[i].kind);
     if (id == kNoLandmark) {
       ++counters_.failed_initialisations;
       result.decision[i] = Decision::kRejected;
@@ -716,7 +741,7 @@ void SlamPipeline::applyAssociation(ScanReport* report) {
 
   // 3. Removals.
   for (const LandmarkId id : result.remove) {
-    if (ekf_.removeLandmark(id)) {
+    if (cekf_ ? cekf_->removeLandmark(id) : ekf_.removeLandmark(id)) {
       report->removed.push_back(id);
       info_.erase(id);
     }
@@ -856,6 +881,7 @@ void SlamPipeline::loadMap(const std::string& path, bool reset_pose, bool unknow
     pose_cov = s.cwiseProduct(s).asDiagonal();
   }
   ekf_.reset(pose, pose_cov, correction);
+  if (cekf_) cekf_->reset();
   info_.clear();
   for (const MapEntry& e : entries) {
     ekf_.insertLandmark(e.position, e.cov, e.id);

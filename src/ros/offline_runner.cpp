@@ -555,7 +555,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     update_us.push_back(1e6 * r.update_s);
     const Eigen::Vector3d x = pipeline.pose();
     const Eigen::Matrix3d P = pipeline.poseCovariance();
-    const EkfSlam& filter = pipeline.ekf();  // current after a scan (nothing pending)
+    // Pose and correction states only: activeEkf() does not bring a compressed filter up to date.
+    const EkfSlam& filter = pipeline.activeEkf();
     poses.push_back({r.stamp, x, P.diagonal(), filter.correction(),
                      filter.correctionCovariance().diagonal().cwiseSqrt()});
     laser_track.push_back({r.stamp, pipeline.observationModel().sensorPose(x).head<2>()});
@@ -711,6 +712,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   const auto t_write = Clock::now();
   {
     std::ofstream traj = openOutput(o.out_dir + "/trajectory.csv");
+    traj.precision(17);  // doubles round-trip: runs can be compared to rounding (bench_cekf.sh)
     // Odometry correction states (AEKF), when configured: estimate and std dev columns.
     const std::vector<std::string> names = pipeline.odometryCorrection().names();
     traj << "stamp,x,y,yaw,var_x,var_y,var_yaw";
@@ -748,6 +750,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   const EkfSlam& ekf = pipeline.ekf();
   {
     std::ofstream lm = openOutput(o.out_dir + "/landmarks.csv");
+    lm.precision(17);
     lm << "id,x,y,var_x,cov_xy,var_y,diameter,times_observed\n";
     for (std::size_t k = 0; k < ekf.numLandmarks(); ++k) {
       const LandmarkId id = ekf.landmarkIds()[k];
@@ -834,6 +837,21 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     j["update_rank_flops"] = u.rank_flops;
     j["update_rank_n"] = u.weighted_n * w;  // rank-flop-weighted state size N ...
     j["update_rank_d"] = u.weighted_d * w;  // ... and measurement dimension d
+  }
+  if (const CompressedEkf* c = pipeline.compressedEkf()) {
+    // filter cekf (docs/cekf.md): its areas and global updates.
+    const CompressedEkfStats& s = c->stats();
+    j["cekf"] = {{"areas", s.phases},
+                 {"compressed_areas", s.compressed_phases},
+                 {"global_updates", s.global_updates},
+                 {"closed_grown", s.grown},
+                 {"closed_landmark_in_reach", s.landmark_in_reach},
+                 {"closed_pairing_outside", s.pairing_outside},
+                 {"closed_flush", s.flushes},
+                 {"global_update_s", s.global_update_s},
+                 {"global_update_flops", s.global_update_flops},
+                 {"active_update_flops", c->activeUpdateFlops()},
+                 {"max_active_states", s.max_active_states}};
   }
   j["sensor_offset"] = {offset->x(), offset->y(), offset->z()};
   const Eigen::Vector3d final_pose = ekf.pose();

@@ -40,6 +40,7 @@
 #include "ekf_slam/core/feature_extraction/feature_extractor.h"
 #include "ekf_slam/core/feature_extraction/scan_filter_chain.h"
 #include "ekf_slam/core/feature_extraction/tree_extractor.h"
+#include "ekf_slam/core/filter/compressed_ekf.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/filter/observation_model.h"
@@ -112,6 +113,12 @@ struct PipelineConfig {
   /// estimate (the map unfreezes). 0: stay lost until found (localisation in a saved map).
   int lost_max_scans = 50;
   double lost_nis_probability = 0.999;
+
+  /// The filter: "ekf" (every step on the whole state) or "cekf", the compressed EKF
+  /// (docs/cekf.md): steps on the active area only, the same result up to rounding.
+  std::string filter = "ekf";
+  double cekf_area_size = 50.0;  ///< CompressedEkfParams::area_size [m]
+  double cekf_margin = 10.0;     ///< CompressedEkfParams::margin [m]
 
   /// Throws ParameterError naming the first invalid setting.
   void validate() const;
@@ -272,11 +279,23 @@ class SlamPipeline {
   ScanReport processObservations(double stamp, std::vector<Observation> observations);
 
   // --- state --------------------------------------------------------------------------------
-  /// The filter, with any pending odometry applied first (O(n) when some is pending).
+  /// The filter, with any pending odometry applied first (O(n) when some is pending). With
+  /// filter cekf the whole state is brought up to date first (a global update when an area is
+  /// open): per-scan readers of the pose or the correction states use activeEkf().
   const EkfSlam& ekf() const {
+    applyPendingMotion();
+    if (cekf_) cekf_->flush();
+    return ekf_;
+  }
+  /// The filter without a global update: its pose, correction states and the landmarks of the
+  /// active area are current, with filter cekf the others may not be (the same as ekf() with
+  /// filter ekf).
+  const EkfSlam& activeEkf() const {
     applyPendingMotion();
     return ekf_;
   }
+  /// The compressed filter (filter cekf), else null.
+  const CompressedEkf* compressedEkf() const { return cekf_.get(); }
   /// Current pose estimate at time(), including odometry not yet applied to the EKF. O(1).
   Eigen::Vector3d pose() const { return pending_steps_ > 0 ? pending_.pose : ekf_.pose(); }
   /// Its covariance, F P_vv F^T + Q of the pending motion. O(1).
@@ -353,6 +372,8 @@ class SlamPipeline {
   PipelineConfig config_;
   std::shared_ptr<DataAssociation> associator_;
   mutable EkfSlam ekf_;  // mutable: ekf() applies the pending motion
+  // filter cekf: runs the steps on ekf_'s active area (mutable: ekf() brings ekf_ up to date).
+  mutable std::unique_ptr<CompressedEkf> cekf_;
   LandmarkIndex index_;
   RangeBearingModel model_;
   std::shared_ptr<FeatureExtractor> extractor_;

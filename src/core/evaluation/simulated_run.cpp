@@ -27,6 +27,9 @@ std::string text(double v) {
 
 // A range that covers every landmark of the world from anywhere in it: what "the whole map is
 // visible" means to range-limited code (the pipeline's filter, DJNN's local region).
+// Worlds with more landmarks than this run the compressed EKF (filter cekf).
+constexpr std::size_t kCompressedFilterLandmarks = 5000;
+
 double coveringRange(const World& w) {
   if (std::isfinite(w.sensor.max_range)) return w.sensor.max_range;
   return std::ceil(1.5 * (w.area_max - w.area_min).norm());
@@ -68,6 +71,8 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
     p["pose_delta_alpha_rot_per_rot"] =
         text(n.sigma_speed / v + std::tan(world.vehicle.max_steer) * n.sigma_steer);
   }
+  // A map this large is beyond the full EKF's per-scan budget (docs/cekf.md; the `city` world).
+  if (world.landmarks.size() > kCompressedFilterLandmarks) p["filter"] = "cekf";
   // What odometry_correction: wheel_factors needs to match the simulated wheels.
   if (world.noise.odometry_wheel_factors != Eigen::Vector2d::Ones())
     p["correction_track_width"] = text(world.vehicle.track_width);

@@ -14,6 +14,7 @@
 #include <Eigen/Cholesky>
 
 #include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/simulation/city_world.h"
 #include "ekf_slam/core/simulation/laser_scan_simulator.h"
 #include "ekf_slam/core/simulation/simulator_sensor_worlds.h"
 
@@ -309,6 +310,7 @@ const std::vector<std::pair<std::string, Builder>>& registry() {
     r.emplace_back("beacons", [] { return beaconCarPark().world; });  // laser: laserWorld()
     r.emplace_back("arena", arenaWorld);                              // simulator_sensor_worlds.cpp
     r.emplace_back("fiducials", fiducialsWorld);
+    r.emplace_back("city", cityWorld);  // simulation/city_world.cpp
     for (int k = 1; k <= 10; ++k)
       r.emplace_back("rrw_noise_" + std::to_string(k), [k] { return rrwNoise(k); });
     for (int k = 1; k <= 10; ++k)
@@ -635,8 +637,13 @@ void Simulation::emitObservations() {
     if (!inView(z)) return;
     scan_.observations.push_back({z, R, truth});
   };
-  for (std::size_t i = 0; i < world_.landmarks.size(); ++i)
+  // Far landmarks cannot be in view (nor draw noise): skipped cheaply, which only matters for
+  // the large worlds (city).
+  const double reach = world_.sensor.max_range + world_.sensor.offset.head<2>().norm();
+  for (std::size_t i = 0; i < world_.landmarks.size(); ++i) {
+    if ((world_.landmarks[i] - pose_.head<2>()).squaredNorm() > reach * reach) continue;
     if (!occluded_[i]) observe(world_.landmarks[i], static_cast<LandmarkId>(i));
+  }
   for (std::size_t k = 0; k < movers_.size(); ++k) observe(movers_[k].p, moverId(k));
 
   const int clutter = clutter_rng_.poisson(world_.clutter_rate);

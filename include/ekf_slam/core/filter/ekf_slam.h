@@ -158,6 +158,10 @@ class EkfSlam {
   bool removeLandmark(LandmarkId id);
 
  private:
+  // Runs the steps on a part of the state and brings the rest up to date itself
+  // (core/filter/compressed_ekf.h): it reads and writes the storage directly.
+  friend class CompressedEkf;
+
   bool predictAugmented(const MotionStep& step);
   MatrixView P() {
     return MatrixView(store_.data(), dim_, dim_, Eigen::OuterStride<>(store_.rows()));

@@ -1,0 +1,127 @@
+// Full EKF against the compressed EKF on a simulated world (docs/benchmarks.md, "Compressed
+// EKF"): time per scan against map size, the real-time factor, the global updates. The true
+// associations, so that both filters see the same pairings and only the filter is timed.
+//
+//   bench_cekf --world city --filter cekf [--area 50] [--margin 10] [--max-scans N]
+//              [--every 1000] [--seed 1]
+// Prints one row per `every` scans (mean time per scan over those scans) and a summary.
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "ekf_slam/core/evaluation/simulated_run.h"
+#include "ekf_slam/core/pipeline_config.h"
+
+namespace {
+
+double seconds(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Process CPU time [s]: on a machine shared with other jobs the wall time measures them too.
+double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace ekf_slam;
+  std::map<std::string, std::string> o = {
+      {"--world", "city"},  {"--filter", "cekf"}, {"--area", "50"}, {"--margin", "10"},
+      {"--max-scans", "0"}, {"--every", "1000"},  {"--seed", "1"}};
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!o.count(argv[i])) {
+      std::fprintf(stderr,
+                   "unknown option %s (options: --world --filter --area --margin "
+                   "--max-scans --every --seed)\n",
+                   argv[i]);
+      return 2;
+    }
+    o[argv[i]] = argv[i + 1];
+  }
+  const sim::World world = sim::makeWorld(o["--world"]);
+  std::map<std::string, std::string> params = sim::pipelineParametersFor(world);
+  params["filter"] = o["--filter"];
+  params["cekf_area_size"] = o["--area"];
+  params["cekf_margin"] = o["--margin"];
+  const PipelineConfig config = readPipelineConfig(MapParameterSource(params));
+  auto known = std::make_shared<KnownAssociation>();
+  SlamPipeline pipeline(config, known);
+  pipeline.setSensorOffset(world.sensor.offset);
+  const long max_scans = std::atol(o["--max-scans"].c_str());
+  const long every = std::max(1L, std::atol(o["--every"].c_str()));
+
+  std::printf("# world %s, filter %s, area %s m, margin %s m, %zu true landmarks\n",
+              world.name.c_str(), o["--filter"].c_str(), o["--area"].c_str(), o["--margin"].c_str(),
+              world.landmarks.size());
+  std::printf("%8s %9s %9s %12s %12s %12s %10s %10s %8s\n", "scans", "sim_s", "landmarks",
+              "ms_per_scan", "max_ms", "cpu_ms_scan", "wall_s", "cpu_s", "globals");
+  sim::Simulation simulation(world, std::strtoull(o["--seed"].c_str(), nullptr, 10));
+  const auto t_start = std::chrono::steady_clock::now();
+  double filter_s = 0.0, window_s = 0.0, window_max = 0.0, sim_time = 0.0;
+  double filter_cpu = 0.0, window_cpu = 0.0;
+  long scans = 0;
+  for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
+    if (e == sim::Simulation::Event::kOdometry) {
+      const sim::OdometrySample& od = simulation.odometry();
+      pipeline.addOdometry({od.stamp + sim::kStampOffset, od.twist, od.pose});
+      continue;
+    }
+    const sim::ObservationSet& set = simulation.observations();
+    known->setTruth(set.truthIds());
+    // The filter's whole work for the scan: prediction, association, update, global updates.
+    const auto t0 = std::chrono::steady_clock::now();
+    const double c0 = cpuSeconds();
+    pipeline.processObservations(set.stamp + sim::kStampOffset, set.toObservations());
+    const double dt = seconds(t0);
+    const double dc = cpuSeconds() - c0;
+    filter_cpu += dc;
+    window_cpu += dc;
+    filter_s += dt;
+    window_s += dt;
+    window_max = std::max(window_max, dt);
+    sim_time = set.stamp;
+    ++scans;
+    if (scans % every == 0) {
+      const CompressedEkf* c = pipeline.compressedEkf();
+      std::printf("%8ld %9.1f %9zu %12.3f %12.3f %12.3f %10.1f %10.1f %8llu\n", scans, sim_time,
+                  pipeline.activeEkf().numLandmarks(), 1e3 * window_s / every, 1e3 * window_max,
+                  1e3 * window_cpu / every, filter_s, filter_cpu,
+                  c ? static_cast<unsigned long long>(c->stats().global_updates) : 0ULL);
+      std::fflush(stdout);
+      window_s = window_max = window_cpu = 0.0;
+    }
+    if (max_scans > 0 && scans >= max_scans) break;
+  }
+  const auto t_final = std::chrono::steady_clock::now();
+  const double c_final = cpuSeconds();
+  const std::size_t n = pipeline.ekf().numLandmarks();  // cekf: the last global update
+  const double final_s = seconds(t_final), final_cpu = cpuSeconds() - c_final;
+  std::printf("# scans %ld, simulated %.1f s, landmarks %zu\n", scans, sim_time, n);
+  std::printf(
+      "# filter wall %.2f s (%.3f ms per scan, real-time factor %.3f), CPU %.2f s (%.3f ms per "
+      "scan, real-time factor %.3f); final global update %.3f s wall, %.3f s CPU; wall incl. "
+      "simulation %.1f s\n",
+      filter_s, 1e3 * filter_s / std::max(1L, scans), filter_s / std::max(1e-9, sim_time),
+      filter_cpu, 1e3 * filter_cpu / std::max(1L, scans), filter_cpu / std::max(1e-9, sim_time),
+      final_s, final_cpu, seconds(t_start));
+  if (const CompressedEkf* c = pipeline.compressedEkf()) {
+    const CompressedEkfStats& s = c->stats();
+    std::printf(
+        "# cekf: %llu areas (%llu compressed), %llu global updates (A grown %llu, "
+        "landmark in reach %llu, pairing outside %llu, flushes %llu), %.2f s in global "
+        "updates (%.1f GFLOP, %.2f GFLOP/s), largest active set %zu states\n",
+        static_cast<unsigned long long>(s.phases),
+        static_cast<unsigned long long>(s.compressed_phases),
+        static_cast<unsigned long long>(s.global_updates), static_cast<unsigned long long>(s.grown),
+        static_cast<unsigned long long>(s.landmark_in_reach),
+        static_cast<unsigned long long>(s.pairing_outside),
+        static_cast<unsigned long long>(s.flushes), s.global_update_s, 1e-9 * s.global_update_flops,
+        s.global_update_s > 0 ? 1e-9 * s.global_update_flops / s.global_update_s : 0.0,
+        s.max_active_states);
+  }
+  return 0;
+}

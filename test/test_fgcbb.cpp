@@ -3,7 +3,9 @@
 // wrong prior), clear answers for bad input (empty map, < 3 observations, NaN descriptors).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
+#include <set>
 #include <string>
 
 #include "ekf_slam/core/relocalisation/fgcbb.h"
@@ -293,10 +295,70 @@ TEST(FGCBB, SplitsManyObservationsIntoCompactGroupsOfAtMostN) {
   EXPECT_EQ(g.lastGroups().size(), 1u);
 }
 
+TEST(FGCBB, OverlappingGroupsSeedOneGroupPerObservation) {
+  const World w = reloc_test::randomMap(300, 120.0, 2.5, 20);
+  FGCBB f;
+  f.configure(params("overlapping_groups", "true"));
+  f.setMap(w.map);
+  const Eigen::Vector3d truth(60, 60, 0.2);
+  std::vector<LandmarkId> ids;
+  const auto obs = w.observe(truth, 15.0, &ids);
+  ASSERT_GE(obs.size(), 13u);
+  expectCorrect(f.relocalise(obs, w.sensor_offset, nullptr), truth, ids, 10);
+  // More groups than a partition has, none larger than N, no set twice, every observation a seed.
+  const auto& groups = f.lastGroups();
+  EXPECT_GT(groups.size(), (obs.size() + 5) / 6);
+  EXPECT_LE(groups.size(), obs.size());
+  std::set<std::vector<int>> sets;
+  std::set<int> seeds;
+  for (const auto& g : groups) {
+    EXPECT_LE(g.size(), 6u);
+    seeds.insert(g.front());
+    std::vector<int> sorted = g;
+    std::sort(sorted.begin(), sorted.end());
+    EXPECT_TRUE(sets.insert(sorted).second) << "a set searched twice";
+  }
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    bool member = false;
+    for (const auto& g : groups) member |= std::find(g.begin(), g.end(), int(i)) != g.end();
+    EXPECT_TRUE(member) << "observation " << i << " in no group";
+  }
+}
+
+// range_sigma / bearing_sigma replace a loose R in the constraints: the observed distances here
+// are stretched by 4 %, which a 3 deg bearing noise hides and a 0.2 deg one does not.
+TEST_P(Relocalisers, OwnObservationNoiseTightensTheConstraints) {
+  const World w = reloc_test::randomMap(200, 120.0, 3.0, 11);
+  const Eigen::Vector3d truth(60, 55, 0.4);
+  std::vector<LandmarkId> ids;
+  auto obs = w.observe(truth, 15.0, &ids, false);
+  ASSERT_GE(obs.size(), 6u);
+  for (Observation& o : obs) {
+    o.z.x() *= 1.04;
+    o.R = Eigen::Vector2d(0.3 * 0.3, deg2rad(3.0) * deg2rad(3.0)).asDiagonal();
+  }
+  auto loose = make(GetParam());
+  loose->setMap(w.map);
+  const auto a = loose->relocalise(obs, w.sensor_offset, nullptr);
+  EXPECT_EQ(a.status, RelocalisationStatus::kFound) << a.reason;
+  auto tight = make(GetParam());
+  MapParameterSource p;
+  p.set("sensor_range", "30");
+  p.set("range_sigma", "0.01");
+  p.set("bearing_sigma", "0.0035");
+  tight->configure(p);
+  tight->setMap(w.map);
+  const auto b = tight->relocalise(obs, w.sensor_offset, nullptr);
+  EXPECT_NE(b.status, RelocalisationStatus::kFound) << "a 4 % stretch passed 1 cm range noise";
+  expectNotWrong(b, truth);
+}
+
 TEST(FGCBB, DefaultsAreThePapers) {
   FGCBB f;
   EXPECT_EQ(f.name(), "FGCBB");
   EXPECT_EQ(f.params().group_size, 6);
+  EXPECT_FALSE(f.params().overlapping_groups);  // the paper's partition
+  EXPECT_EQ(f.params().range_sigma, 0.0);       // the observations' own R
   EXPECT_TRUE(f.params().use_locality);
   EXPECT_DOUBLE_EQ(f.params().sensor_range, 16.0);
   GCBB g;

@@ -27,7 +27,7 @@ using reloc_test::World;
 class Drive {
  public:
   explicit Drive(bool relocaliser = true, const Eigen::Vector3d& start = {20, 30, 0.1},
-                 std::shared_ptr<Relocaliser> custom = nullptr)
+                 std::shared_ptr<Relocaliser> custom = nullptr, int confirmations = 0)
       : world_(reloc_test::randomMap(250, 120.0, 3.0, 21)), truth_(start) {
     config_.initial_pose = start;
     config_.initial_pose_sigma = Eigen::Vector3d(0.01, 0.01, 0.001);
@@ -35,6 +35,7 @@ class Drive {
     config_.sigma_bearing = reloc_test::kSigmaBearing;
     config_.max_observation_range = 15.0;
     config_.lost_field_of_view = 2.0 * M_PI;
+    config_.relocalisation_confirmations = confirmations;
     config_.twist.additive = Eigen::Vector3d(0.005, 0.005, 0.0005).asDiagonal();
     djnn_ = std::make_shared<DJNN>();
     MapParameterSource djnn_params;
@@ -183,6 +184,57 @@ class NeverFound : public Relocaliser {
   std::size_t map_size = 0;
   int calls = 0;
 };
+
+// Found at every call: a pose 30 m off at the first, the truth after (a chance alignment, then
+// the right place).
+class WrongThenRight : public Relocaliser {
+ public:
+  explicit WrongThenRight(const Eigen::Vector3d* truth) : truth_(truth) {}
+  void configure(const ParameterSource&) override {}
+  std::string name() const override { return "WrongThenRight"; }
+  void setMap(const std::vector<MapLandmark>&) override {}
+  RelocalisationResult relocalise(const std::vector<Observation>& obs, const Eigen::Vector3d&,
+                                  const PosePrior*) override {
+    RelocalisationResult r;
+    r.landmark.assign(obs.size(), kNoLandmark);
+    r.status = RelocalisationStatus::kFound;
+    r.pose = *truth_ + (calls++ == 0 ? Eigen::Vector3d(30.0, -20.0, 1.0) : Eigen::Vector3d::Zero());
+    r.covariance = 1e-4 * Eigen::Matrix3d::Identity();
+    return r;
+  }
+  int calls = 0;
+
+ private:
+  const Eigen::Vector3d* truth_;
+};
+
+TEST(Recovery, AFixIsAppliedOnlyOnceTheNextAgrees) {
+  for (const int confirmations : {0, 1}) {
+    SCOPED_TRACE("relocalisation_confirmations " + std::to_string(confirmations));
+    Drive d(true, {20, 30, 0.1}, nullptr, confirmations);
+    auto reloc = std::make_shared<WrongThenRight>(&d.truth());
+    d.pipeline().setRelocaliser(reloc);
+    d.run(20);
+    ASSERT_TRUE(d.pipeline().requestRelocalisation());
+    const ScanReport first = d.run(1);
+    if (confirmations == 0) {  // the chance alignment is taken: 30 m off
+      EXPECT_TRUE(first.relocalised);
+      EXPECT_GT(d.error(), 20.0);
+      continue;
+    }
+    EXPECT_FALSE(first.relocalised);  // held
+    EXPECT_TRUE(d.pipeline().lost());
+    const ScanReport second = d.run(1);  // the truth, 36 m from the held fix: held instead
+    EXPECT_FALSE(second.relocalised);
+    const ScanReport third = d.run(1);  // the truth again, moved by the odometry: applied
+    EXPECT_TRUE(third.relocalised) << third.lost_reason;
+    EXPECT_FALSE(d.pipeline().lost());
+    EXPECT_LT(d.error(), 0.5);
+    EXPECT_EQ(reloc->calls, 3);
+    EXPECT_EQ(d.pipeline().counters().relocalisations_unconfirmed, 2u);
+    EXPECT_EQ(d.pipeline().counters().relocalisations, 1u);
+  }
+}
 
 TEST(Recovery, MapIsFrozenWhileLost) {
   auto never = std::make_shared<NeverFound>();

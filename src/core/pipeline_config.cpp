@@ -107,6 +107,12 @@ void PipelineConfig::validate() const {
                    "lost_field_of_view", "must lie in (0, 2 pi]", lost_field_of_view);
   count(lost_nis_scans, "lost_nis_scans");
   count(lost_max_scans, "lost_max_scans");
+  count(relocalisation_confirmations, "relocalisation_confirmations");
+  requireParameter(relocalisation_confirm_distance > 0.0, "relocalisation_confirm_distance",
+                   "must be positive", relocalisation_confirm_distance);
+  requireParameter(relocalisation_confirm_angle > 0.0 && relocalisation_confirm_angle <= M_PI,
+                   "relocalisation_confirm_angle", "must lie in (0, pi]",
+                   relocalisation_confirm_angle);
   requireParameter(lost_nis_probability > 0.0 && lost_nis_probability < 1.0, "lost_nis_probability",
                    "must lie in (0, 1)", lost_nis_probability);
   if (filter != "ekf" && filter != "cekf") {
@@ -203,6 +209,12 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.filter = r.text("filter", c.filter, {"ekf", "cekf"});
   c.cekf_area_size = r.positive("cekf_area_size", c.cekf_area_size);
   c.cekf_margin = r.nonNegative("cekf_margin", c.cekf_margin);
+  c.relocalisation_confirmations =
+      r.integer("relocalisation_confirmations", c.relocalisation_confirmations, 0, 1000);
+  c.relocalisation_confirm_distance =
+      r.positive("relocalisation_confirm_distance", c.relocalisation_confirm_distance);
+  c.relocalisation_confirm_angle =
+      r.inRange("relocalisation_confirm_angle", c.relocalisation_confirm_angle, 1e-6, M_PI);
 
   c.validate();  // cross-field checks; the names are the parameter names
   return c;

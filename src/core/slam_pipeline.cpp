@@ -2,6 +2,8 @@
 // association -> EKF update / initialisation / removal. See slam_pipeline.h.
 #include "ekf_slam/core/slam_pipeline.h"
 
+#include "ekf_slam/core/pose2d.h"
+
 #include "ekf_slam/core/feature_extraction/tree_feature_extractor.h"
 
 #include <algorithm>
@@ -128,7 +130,7 @@ std::vector<MapLandmark> SlamPipeline::mapLandmarks() const {
 void SlamPipeline::enterLost(bool pose_unknown) {
   lost_ = true;
   pose_unknown_ = pose_unknown;
-  lost_scans_ = 0;
+  lost_scans_ = fix_count_ = 0;
   unpaired_streak_ = nis_streak_ = 0;
   relocaliser_->setMap(mapLandmarks());  // frozen until found
 }
@@ -264,8 +266,14 @@ void SlamPipeline::relocaliseScan(ScanReport* report) {
   report->association.resize(report->observations.size());
   const RelocalisationResult r = callRelocaliser(report);
   if (usable(r, report->observations.size())) {
-    applyRelocalisation(r, report);
-    return;
+    if (confirmedFix(r)) {
+      applyRelocalisation(r, report);
+      return;
+    }
+    ++counters_.relocalisations_unconfirmed;
+    report->lost_reason = "fix " + std::to_string(fix_count_) + " of " +
+                          std::to_string(config_.relocalisation_confirmations + 1) +
+                          " that must agree";
   }
   // Not found for too long (the rule fired wrongly, or the vehicle left the map): tracking
   // resumes from the dead-reckoned estimate rather than freezing the map forever.
@@ -274,8 +282,28 @@ void SlamPipeline::relocaliseScan(ScanReport* report) {
     report->lost_reason = "no relocalisation in " + std::to_string(lost_scans_) +
                           " scans: tracking resumes from the estimate";
     lost_ = false;
-    unpaired_streak_ = nis_streak_ = 0;
+    unpaired_streak_ = nis_streak_ = fix_count_ = 0;
   }
+}
+
+bool SlamPipeline::confirmedFix(const RelocalisationResult& r) {
+  const Eigen::Vector3d estimate = pose();
+  if (fix_count_ > 0) {
+    // The held fix moved by the odometry since: the estimate integrates it while lost.
+    const Eigen::Vector3d moved =
+        composePose(fix_pose_, composePose(inversePose(fix_estimate_), estimate));
+    const bool agrees =
+        (moved.head<2>() - r.pose.head<2>()).norm() <= config_.relocalisation_confirm_distance &&
+        std::abs(wrapAngle(moved.z() - r.pose.z())) <= config_.relocalisation_confirm_angle;
+    fix_count_ = agrees ? fix_count_ + 1 : 1;
+  } else {
+    fix_count_ = 1;
+  }
+  fix_pose_ = r.pose;
+  fix_estimate_ = estimate;
+  if (fix_count_ <= config_.relocalisation_confirmations) return false;
+  fix_count_ = 0;
+  return true;
 }
 
 void SlamPipeline::applyRelocalisation(const RelocalisationResult& r, ScanReport* report) {

@@ -919,6 +919,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                    {"relocalisations", k.relocalisations},
                    {"relocalisations_ambiguous", k.relocalisations_ambiguous},
                    {"relocalisations_not_found", k.relocalisations_not_found},
+                   {"relocalisations_unconfirmed", k.relocalisations_unconfirmed},
                    {"discarded_landmarks", k.discarded_landmarks}};
   j["relocaliser"] = relocaliser_short;
   j["lost_at_end"] = pipeline.lost();

@@ -112,6 +112,7 @@ ExperimentSummary runRelocalisationExperiment(const RelocalisationExperimentOpti
     ExperimentScan s;
     s.scan = t.scan;
     s.observations = static_cast<int>(t.observations.size());
+    for (const LandmarkId id : t.paired) s.mapped += id != kNoLandmark && in_map.count(id) > 0;
     const Eigen::Vector3d sensor = model.sensorPose(t.reference);
     int in_view = 0;
     for (const MapLandmark& l : map) {
@@ -148,11 +149,11 @@ ExperimentSummary runRelocalisationExperiment(const RelocalisationExperimentOpti
   // 3. Files.
   {
     std::ofstream csv = openOutput(o.out_dir + "/scans.csv");
-    csv << "scan,observations,inside,answer,correct,pairings,conflicts,position_error_m,"
+    csv << "scan,observations,mapped,inside,answer,correct,pairings,conflicts,position_error_m,"
            "heading_error_rad,time_us,nodes,reason\n";
     for (const ExperimentScan& s : summary.scans) {
-      csv << s.scan << ',' << s.observations << ',' << s.inside << ',' << s.answer << ','
-          << s.correct << ',' << s.pairings << ',' << s.conflicts << ',';
+      csv << s.scan << ',' << s.observations << ',' << s.mapped << ',' << s.inside << ','
+          << s.answer << ',' << s.correct << ',' << s.pairings << ',' << s.conflicts << ',';
       if (std::isfinite(s.position_error_m)) csv << s.position_error_m;
       csv << ',';
       if (std::isfinite(s.heading_error_rad)) csv << s.heading_error_rad;

@@ -112,6 +112,12 @@ struct PipelineConfig {
   /// Lost this many scans without a relocalisation: tracking resumes from the dead-reckoned
   /// estimate (the map unfreezes). 0: stay lost until found (localisation in a saved map).
   int lost_max_scans = 50;
+  /// While lost, a fix is applied only after this many further fixes agree with it (moved by the
+  /// odometry between them, within relocalisation_confirm_distance / _angle): a chance
+  /// alignment of a few trees rarely repeats from the next viewpoint. 0: the first fix is applied.
+  int relocalisation_confirmations = 0;
+  double relocalisation_confirm_distance = 2.0;
+  double relocalisation_confirm_angle = 0.2;
   double lost_nis_probability = 0.999;
 
   /// The filter: "ekf" (every step on the whole state) or "cekf", the compressed EKF
@@ -208,6 +214,7 @@ struct PipelineCounters {
   std::uint64_t relocalisations_ambiguous = 0;
   std::uint64_t lost_timeouts = 0;  ///< lost_max_scans reached: tracking resumed unrelocalised
   std::uint64_t relocalisations_not_found = 0;
+  std::uint64_t relocalisations_unconfirmed = 0;  ///< found, held for confirmation
   /// Recent landmarks (lost_recent_scans) removed when the pipeline went lost (they may come
   /// from a pose now taken to be wrong).
   std::uint64_t discarded_landmarks = 0;
@@ -406,6 +413,12 @@ class SlamPipeline {
   std::shared_ptr<Relocaliser> relocaliser_;
   bool lost_ = false;
   int lost_scans_ = 0;  // relocalisation attempts since lost
+  // A fix awaiting confirmation (relocalisation_confirmations): its pose, the estimate at that
+  // scan, and how many agreeing fixes it has had.
+  Eigen::Vector3d fix_pose_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d fix_estimate_ = Eigen::Vector3d::Zero();
+  int fix_count_ = 0;
+  bool confirmedFix(const RelocalisationResult& r);
   bool pose_unknown_ = false;
   int unpaired_streak_ = 0;
   int nis_streak_ = 0;

@@ -48,7 +48,8 @@ struct ExperimentScan {
   std::string answer;    ///< found / not_found / ambiguous
   bool correct = false;  ///< found and near the reference
   int pairings = 0;
-  int conflicts = 0;               ///< pairings with another map landmark than the reference run's
+  int conflicts = 0;  ///< pairings with another map landmark than the reference run's
+  int mapped = 0;     ///< observations the reference run paired with a landmark of the map
   double position_error_m = 0.0;   ///< NaN unless found
   double heading_error_rad = 0.0;  ///< NaN unless found
   double time_us = 0.0;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <unordered_map>
 
 #include <Eigen/Cholesky>
 
@@ -36,9 +37,12 @@ void GeometricConstraintBB::configure(const ParameterSource& source) {
   p.sensor_range = r.positive("sensor_range", d.sensor_range);
   p.max_observation_range = r.nonNegative("max_observation_range", d.max_observation_range);
   p.group_size = r.integer("group_size", d.group_size, 0, 30);
+  p.overlapping_groups = r.flag("overlapping_groups", d.overlapping_groups);
   p.use_locality = r.flag("use_locality", d.use_locality);
   p.unary_probability = r.probability("unary_probability", d.unary_probability);
   p.descriptor_sigma = r.positive("descriptor_sigma", d.descriptor_sigma);
+  p.range_sigma = r.nonNegative("range_sigma", d.range_sigma);
+  p.bearing_sigma = r.nonNegative("bearing_sigma", d.bearing_sigma);
   p.binary_probability = r.probability("binary_probability", d.binary_probability);
   p.joint_probability = r.probability("joint_probability", d.joint_probability);
   p.prior_probability = r.probability("prior_probability", d.prior_probability);
@@ -76,6 +80,25 @@ void GeometricConstraintBB::setMap(const std::vector<MapLandmark>& map) {
 }
 
 double GeometricConstraintBB::localityRange() const { return params_.sensor_range; }
+
+std::vector<Observation> GeometricConstraintBB::withOwnNoise(
+    const std::vector<Observation>& observations) const {
+  if (params_.range_sigma <= 0.0 && params_.bearing_sigma <= 0.0) return observations;
+  // Only the range-bearing ones: a Cartesian covariance is in other units.
+  std::vector<Observation> out = observations;
+  for (Observation& o : out) {
+    if (o.kind != MeasurementKind::kRangeBearing) continue;
+    if (params_.range_sigma > 0.0) {
+      o.R(0, 0) = params_.range_sigma * params_.range_sigma;
+      o.R(0, 1) = o.R(1, 0) = 0.0;
+    }
+    if (params_.bearing_sigma > 0.0) {
+      o.R(1, 1) = params_.bearing_sigma * params_.bearing_sigma;
+      o.R(0, 1) = o.R(1, 0) = 0.0;
+    }
+  }
+  return out;
+}
 
 int GeometricConstraintBB::threshold() const {
   return std::max(params_.min_group_pairings, best_ - params_.ambiguity_margin);
@@ -146,13 +169,16 @@ void GeometricConstraintBB::makeGroups() {
     return;
   }
   // Compact groups: a seed and its nearest unassigned points (with locality only those closer
-  // than the C_ij radius, since farther pairs cannot both be paired).
+  // than the C_ij radius, since farther pairs cannot both be paired). Overlapping: every point
+  // seeds a group of its nearest points, assigned or not; a set met before is not searched again.
+  const bool overlap = params_.overlapping_groups;
   std::vector<char> assigned(n, 0);
+  std::vector<std::vector<int>> seen_sets;
   for (const int seed : order) {
-    if (assigned[seed]) continue;
+    if (assigned[seed] && !overlap) continue;
     std::vector<int> rest;
     for (const int i : order) {
-      if (!assigned[i] && i != seed) rest.push_back(i);
+      if ((overlap || !assigned[i]) && i != seed) rest.push_back(i);
     }
     const Eigen::Vector2d s = points_[seed].p;
     std::sort(rest.begin(), rest.end(), [&](int a, int b) {
@@ -165,6 +191,12 @@ void GeometricConstraintBB::makeGroups() {
       if (params_.use_locality && (points_[i].p - s).norm() >= localityRange()) break;
       group.push_back(i);
       assigned[i] = 1;
+    }
+    if (overlap) {
+      std::vector<int> set = group;
+      std::sort(set.begin(), set.end());
+      if (std::find(seen_sets.begin(), seen_sets.end(), set) != seen_sets.end()) continue;
+      seen_sets.push_back(std::move(set));
     }
     last_groups_.push_back(group);
   }
@@ -333,7 +365,7 @@ RelocalisationResult GeometricConstraintBB::relocalise(const std::vector<Observa
   const double max_range = params_.max_observation_range > 0.0
                                ? params_.max_observation_range
                                : std::numeric_limits<double>::infinity();
-  points_ = observedPoints(observations, sensor_offset, max_range);
+  points_ = observedPoints(withOwnNoise(observations), sensor_offset, max_range);
   if (static_cast<int>(points_.size()) < params_.min_observations) {
     return notFound(result, std::to_string(points_.size()) + " usable observations (at least " +
                                 std::to_string(params_.min_observations) + " needed)");
@@ -400,15 +432,36 @@ RelocalisationResult GeometricConstraintBB::relocalise(const std::vector<Observa
     Verified verified;
   };
   std::vector<Cluster> clusters;
+  // Clusters by position cell (distinct_distance): a proposal is compared with the clusters of
+  // its cell and the eight around it, not with every cluster.
+  std::unordered_map<std::int64_t, std::vector<int>> cells;
+  const auto cellOf = [&](const Eigen::Vector3d& pose, int dx, int dy) {
+    const auto ix = static_cast<std::int64_t>(std::floor(pose.x() / params_.distinct_distance));
+    const auto iy = static_cast<std::int64_t>(std::floor(pose.y() / params_.distinct_distance));
+    return static_cast<std::int64_t>((static_cast<std::uint64_t>(ix + dx) << 32) ^
+                                     (static_cast<std::uint64_t>(iy + dy) & 0xffffffffULL));
+  };
   for (std::size_t s = 0; s < scored.size(); ++s) {
-    auto it = std::find_if(clusters.begin(), clusters.end(),
-                           [&](const Cluster& c) { return samePose(c.pose, scored[s].fit.pose); });
-    if (it == clusters.end()) {
-      clusters.push_back(
-          Cluster{scored[s].fit.pose, std::vector<int>(last_groups_.size(), -1), {}});
-      it = clusters.end() - 1;
+    const Eigen::Vector3d& pose = scored[s].fit.pose;
+    int found = -1;
+    for (int dx = -1; dx <= 1 && found < 0; ++dx) {
+      for (int dy = -1; dy <= 1 && found < 0; ++dy) {
+        const auto it = cells.find(cellOf(pose, dx, dy));
+        if (it == cells.end()) continue;
+        for (const int c : it->second) {
+          if (samePose(clusters[c].pose, pose)) {
+            found = c;
+            break;
+          }
+        }
+      }
     }
-    int& b = it->best[scored[s].group];
+    if (found < 0) {
+      found = static_cast<int>(clusters.size());
+      clusters.push_back(Cluster{pose, std::vector<int>(last_groups_.size(), -1), {}});
+      cells[cellOf(pose, 0, 0)].push_back(found);
+    }
+    int& b = clusters[found].best[scored[s].group];
     if (b < 0) b = static_cast<int>(s);
   }
   for (Cluster& c : clusters) {

@@ -35,9 +35,16 @@
 //   sensor_range        [16]     R [m]: C_ij = 1 iff |m_i - m_j| < R (the paper's 16 m)
 //   max_observation_range [0]    observations farther from the sensor are not used [m]; 0: all
 //   group_size          [6 / 0]  N: at most N observations per group; 0 = one group (GCBB)
+//   overlapping_groups  [false]  every observation seeds a group of its N - 1 nearest (instead
+//                                of a partition): a scene whose mapped trees do not fall in
+//                                one partition group is still found, at m searches per call
 //   use_locality        [true / false]  C_ij = 1 required for map pairs
 //   unary_probability   [0.95]   unary gate chi2(1, p)
 //   descriptor_sigma    [0.1]    std dev of one descriptor (trunk diameter) [m]
+//   range_sigma         [0]      range noise of one observation for the constraints [m]; 0: the
+//                                observation's own R (see docs/relocalisation.md: a filter's R
+//                                may be inflated, which blunts the binary constraint)
+//   bearing_sigma       [0]      bearing noise likewise [rad]; 0: the observation's own R
 //   binary_probability  [0.99]   binary gate chi2(1, p)
 //   joint_probability   [0.95]   joint compatibility chi2(2k - 3, p)
 //   prior_probability   [0.999]  prior gate chi2(2, p)
@@ -70,9 +77,12 @@ struct GeometricConstraintParams {
   double sensor_range = 16.0;
   double max_observation_range = 0.0;
   int group_size = 6;
+  bool overlapping_groups = false;
   bool use_locality = true;
   double unary_probability = 0.95;
   double descriptor_sigma = 0.1;
+  double range_sigma = 0.0;
+  double bearing_sigma = 0.0;
   double binary_probability = 0.99;
   double joint_probability = 0.95;
   double prior_probability = 0.999;
@@ -140,6 +150,8 @@ class GeometricConstraintBB : public Relocaliser {
                        double gate, std::vector<int>* out) const;
   int threshold() const;
   double localityRange() const;
+  // The observations with range_sigma / bearing_sigma in place of their own R, where set.
+  std::vector<Observation> withOwnNoise(const std::vector<Observation>& observations) const;
 
   GeometricConstraintParams defaults_;
   GeometricConstraintParams params_;

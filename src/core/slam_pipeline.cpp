@@ -237,7 +237,10 @@ void SlamPipeline::probe(ScanReport* report) {
   discardRecent(report);
   ++counters_.lost_events;
   report->became_lost = true;
-  applyRelocalisation(r, report);
+  // A kidnap found by a probe is a fix like any other: with relocalisation_confirmations the
+  // pipeline goes lost and holds it until the next fixes agree.
+  enterLost();
+  applyIfConfirmed(r, report);
 }
 
 RelocalisationResult SlamPipeline::callRelocaliser(ScanReport* report) {
@@ -265,16 +268,7 @@ void SlamPipeline::relocaliseScan(ScanReport* report) {
   report->lost = true;
   report->association.resize(report->observations.size());
   const RelocalisationResult r = callRelocaliser(report);
-  if (usable(r, report->observations.size())) {
-    if (confirmedFix(r)) {
-      applyRelocalisation(r, report);
-      return;
-    }
-    ++counters_.relocalisations_unconfirmed;
-    report->lost_reason = "fix " + std::to_string(fix_count_) + " of " +
-                          std::to_string(config_.relocalisation_confirmations + 1) +
-                          " that must agree";
-  }
+  if (usable(r, report->observations.size()) && applyIfConfirmed(r, report)) return;
   // Not found for too long (the rule fired wrongly, or the vehicle left the map): tracking
   // resumes from the dead-reckoned estimate rather than freezing the map forever.
   if (!pose_unknown_ && config_.lost_max_scans > 0 && ++lost_scans_ >= config_.lost_max_scans) {
@@ -284,6 +278,19 @@ void SlamPipeline::relocaliseScan(ScanReport* report) {
     lost_ = false;
     unpaired_streak_ = nis_streak_ = fix_count_ = 0;
   }
+}
+
+bool SlamPipeline::applyIfConfirmed(const RelocalisationResult& r, ScanReport* report) {
+  if (confirmedFix(r)) {
+    applyRelocalisation(r, report);
+    return true;
+  }
+  ++counters_.relocalisations_unconfirmed;
+  report->lost_reason += (report->lost_reason.empty() ? "" : "; ") + std::string("held: fix ") +
+                         std::to_string(fix_count_) + " of " +
+                         std::to_string(config_.relocalisation_confirmations + 1) +
+                         " that must agree";
+  return false;
 }
 
 bool SlamPipeline::confirmedFix(const RelocalisationResult& r) {

@@ -419,6 +419,8 @@ class SlamPipeline {
   Eigen::Vector3d fix_estimate_ = Eigen::Vector3d::Zero();
   int fix_count_ = 0;
   bool confirmedFix(const RelocalisationResult& r);
+  // Applies a found fix once confirmed (true); else holds it, counted, and says so in the report.
+  bool applyIfConfirmed(const RelocalisationResult& r, ScanReport* report);
   bool pose_unknown_ = false;
   int unpaired_streak_ = 0;
   int nis_streak_ = 0;

@@ -112,9 +112,10 @@ struct PipelineConfig {
   /// Lost this many scans without a relocalisation: tracking resumes from the dead-reckoned
   /// estimate (the map unfreezes). 0: stay lost until found (localisation in a saved map).
   int lost_max_scans = 50;
-  /// While lost, a fix is applied only after this many further fixes agree with it (moved by the
-  /// odometry between them, within relocalisation_confirm_distance / _angle): a chance
-  /// alignment of a few trees rarely repeats from the next viewpoint. 0: the first fix is applied.
+  /// While lost (and for a kidnap a probe finds), a fix is applied only after this many further
+  /// fixes agree with it (moved by the odometry between them, within
+  /// relocalisation_confirm_distance / _angle): a chance alignment of a few trees rarely repeats
+  /// from the next viewpoint. 0: the first fix is applied.
   int relocalisation_confirmations = 0;
   double relocalisation_confirm_distance = 2.0;
   double relocalisation_confirm_angle = 0.2;

@@ -6,6 +6,7 @@
 #
 #   scripts/node_throughput.sh [RATE] [BAG]      # default rate 100
 #   PLAY_DELAY=2 scripts/node_throughput.sh      # rosbag play -d 2: waits for the subscribers
+#   PLAY_QUEUE=100 scripts/node_throughput.sh    # rosbag play's own default outgoing queue
 set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 source "$EKF_SLAM_DEVEL/setup.bash"
@@ -29,7 +30,7 @@ node=$!
 pids+=($node)
 sleep 3
 start=$(date +%s)
-rosbag play -q --clock -d "${PLAY_DELAY:-0}" -r "$rate" "$bag" > "$work/play.log" 2>&1
+rosbag play -q --clock -d "${PLAY_DELAY:-0}" --queue="${PLAY_QUEUE:-100000}" -r "$rate" "$bag" > "$work/play.log" 2>&1
 wall=$(( $(date +%s) - start ))
 sleep 3  # input_timeout: the last scans are processed
 rosservice call /ekf_slam/save_map "path: '$work/node_map.txt'" > "$work/save_map.log" 2>&1 ||

@@ -6,6 +6,7 @@
 # largest distance after it. Prints a table and a summary line; writes OUT/windows.csv.
 #   scripts/saved_map_windows.sh [OUT]       default OUT: $EKF_SLAM_BUILD/saved_map_windows
 # Env: WINDOW (60 s), STEP (120 s between window starts), RELOCALISER (ekf_slam/FGCBB),
+#      PARAMS (config/victoria_park.yaml; the windows' parameters, the full run's are always that),
 #      VP_BAG (default $EKF_SLAM_BUILD/vp.bag, converted from $VP_DATA if missing).
 set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
@@ -16,6 +17,7 @@ step=${STEP:-120}
 reloc=${RELOCALISER:-ekf_slam/FGCBB}
 bag=${VP_BAG:-$EKF_SLAM_BUILD/vp.bag}
 params=$EKF_SLAM_ROOT/config/victoria_park.yaml
+window_params=${PARAMS:-$params}
 [[ -f $bag ]] || rosrun ekf_slam victoria_park_to_bag --data "$VP_DATA" --out "$bag" > /dev/null
 mkdir -p "$out"
 echo "full run (saves the map) ..."
@@ -48,7 +50,7 @@ with rosbag.Bag(bag_path) as b:
 print(" ".join(str(int(s)) for s in starts), file=open(f"{out}/starts.txt", "w"))
 PY
 for s in $(cat "$out/starts.txt"); do
-  rosrun ekf_slam ekf_slam_offline --bag "$out/window_$s.bag" --params "$params" \
+  rosrun ekf_slam ekf_slam_offline --bag "$out/window_$s.bag" --params "$window_params" \
     --relocaliser "$reloc" --load-map "$out/full/map.txt" --unknown-pose --out "$out/w_$s" \
     --no-plot --no-progress > "$out/w_$s.log" 2>&1 || echo "window $s: run failed (see $out/w_$s.log)"
   rm -f "$out/window_$s.bag"

@@ -1,7 +1,7 @@
 // Lost-robot recovery through SlamPipeline with DJNN and FGCBB: a forced relocalisation, a
 // kidnap detected by the lost rule and recovered without duplicating the map, localisation in a
 // saved map from an unknown pose, the map frozen while lost, and a kidnapped simulated world end
-// to end (runSimulation, as `evaluate --relocaliser` runs it).
+// to end (runSimulation, as `evaluate --relocaliser` runs it), and a kidnap only a probe can see.
 #include <gtest/gtest.h>
 
 #include <memory>
@@ -164,6 +164,49 @@ TEST(Recovery, KidnapIsDetectedAndRecoveredWithoutDuplicatingTheMap) {
   d.run(40);
   EXPECT_LT(d.error(), 0.5);
   EXPECT_EQ(d.duplicates(), 0);
+}
+
+// The probe (docs/relocalisation.md, "Nothing established paired and nothing established in
+// view"): the filter believes it stands in ground it has not mapped, while the vehicle is back in
+// the mapped part of the forest. No lost rule can fire (no established landmark in view at the
+// believed pose), so the relocaliser probes; its fix lies far outside the filter's estimate, so
+// the pipeline goes lost and applies it (with relocalisation_confirmations 1, once the next fix
+// agrees). Landmarks mapped at the believed pose meanwhile are discarded.
+TEST(Recovery, AProbeFindsAKidnapIntoGroundTheFilterTakesForNew) {
+  test_files::TempDir dir;
+  const std::string path = (dir.path() / "map.txt").string();
+  const Eigen::Vector3d mapped_start(20.0, 30.0, 0.1);
+  {
+    Drive d(true, mapped_start);
+    d.run(60);
+    d.pipeline().saveMap(path);
+  }
+  for (const int confirmations : {0, 1}) {
+    SCOPED_TRACE("relocalisation_confirmations " + std::to_string(confirmations));
+    const Eigen::Vector3d believed(100.0, 100.0, -2.0);  // far from every mapped landmark
+    Drive d(true, believed, nullptr, confirmations);
+    d.pipeline().loadMap(path, /*reset_pose=*/false, /*unknown_pose=*/false);
+    ASSERT_FALSE(d.pipeline().lost());
+    const std::size_t loaded = d.pipeline().ekf().numLandmarks();
+    d.kidnap(mapped_start - believed + Eigen::Vector3d(4.0, 1.0, 0.0));
+    int relocalised_at = -1;
+    for (int k = 0; k < 20 && relocalised_at < 0; ++k) {
+      if (d.run(1).relocalised) relocalised_at = k;
+    }
+    ASSERT_GE(relocalised_at, 0) << "never relocalised";
+    EXPECT_GT(d.pipeline().counters().probes, 0u);
+    EXPECT_EQ(d.pipeline().counters().lost_events, 1u);
+    EXPECT_EQ(d.pipeline().counters().relocalisations, 1u);
+    EXPECT_EQ(d.pipeline().counters().relocalisations_unconfirmed,
+              static_cast<std::uint64_t>(confirmations));
+    EXPECT_LT(d.error(), 0.5);
+    EXPECT_LT(d.headingError(), 0.02);
+    // What was mapped at the believed pose is gone; the saved map is kept, not duplicated.
+    EXPECT_EQ(d.pipeline().ekf().numLandmarks(), loaded);
+    d.run(20);
+    EXPECT_LT(d.error(), 0.5);
+    EXPECT_EQ(d.duplicates(), 0);
+  }
 }
 
 // Never finds anything; counts its calls and remembers the map it was given.

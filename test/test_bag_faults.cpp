@@ -23,6 +23,7 @@
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
 #include "fault_bags.h"
+#include "offline_test_options.h"
 #include "test_files.h"
 
 #if defined(__SANITIZE_ADDRESS__)
@@ -81,13 +82,7 @@ class BagFaults : public testing::Test {
 
   static OfflineOptions options(const std::string& bag, const std::string& out,
                                 const std::string& params = kConfig) {
-    OfflineOptions o;
-    o.bag_path = bag;
-    o.out_dir = dir_->file(out);
-    o.params_path = params;
-    o.plot = false;
-    o.progress = false;
-    return o;
+    return test_files::quietOfflineOptions(bag, params, dir_->file(out));
   }
   static RunResult run(const std::string& bag, const std::string& out,
                        const std::string& params = kConfig) {

@@ -23,6 +23,7 @@
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
+#include "offline_test_options.h"
 #include "test_files.h"
 
 namespace fs = std::filesystem;
@@ -57,13 +58,8 @@ std::string format(const Row& r) {
 
 // Runs the window with one associator: its rows (poses, then the final map).
 std::vector<Row> runWindow(const fs::path& bag, const fs::path& out, const std::string& name) {
-  OfflineOptions o;
-  o.bag_path = bag.string();
-  o.out_dir = out.string();
-  o.params_path = kConfig;
+  OfflineOptions o = test_files::quietOfflineOptions(bag.string(), kConfig, out.string());
   o.associator = name;
-  o.progress = false;
-  o.plot = false;
   std::vector<Row> rows;
   const EkfSlam* last = nullptr;
   std::vector<Row> map;

@@ -41,6 +41,7 @@
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
+#include "offline_test_options.h"
 #include "ros_test_wait.h"
 #include "rosbag_play.h"
 #include "test_files.h"
@@ -255,13 +256,10 @@ TEST(VictoriaPark, NodePublishesEverything) {
 
   // The offline runner on the same bag, with the same parameters, gives the same trajectory:
   // both shells drive one pipeline through one sequencer.
-  ekf_slam::OfflineOptions offline;
-  offline.bag_path = options.out_path;
-  offline.out_dir = (tmp / "offline").string();
-  offline.params_path = std::string(EKF_SLAM_SOURCE_DIR) + "/config/victoria_park.yaml";
+  ekf_slam::OfflineOptions offline = test_files::quietOfflineOptions(
+      options.out_path, std::string(EKF_SLAM_SOURCE_DIR) + "/config/victoria_park.yaml",
+      (tmp / "offline").string());
   offline.associator = associator;
-  offline.plot = false;
-  offline.progress = false;
   std::ostringstream offline_log;
   ASSERT_NO_THROW(ekf_slam::runOffline(offline, offline_log)) << offline_log.str();
   std::ifstream csv(offline.out_dir + "/trajectory.csv");

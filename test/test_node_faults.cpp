@@ -24,6 +24,7 @@
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
 #include "fault_bags.h"
+#include "offline_test_options.h"
 #include "ros_test_wait.h"
 #include "rosbag_play.h"
 #include "test_files.h"
@@ -86,12 +87,8 @@ TEST(NodeFaults, NodeAndOfflineRunnerGiveTheSameMapOnEveryFaultAtOnce) {
   fault_bags::writeFaultyBag(options.out_path, bag, fault_bags::allFaults());
   const std::size_t bag_scans = messages(bag, "/scan"), bag_odometry = messages(bag, "/odom");
 
-  ekf_slam::OfflineOptions offline;
-  offline.bag_path = bag;
-  offline.out_dir = dir.file("offline");
-  offline.params_path = std::string(EKF_SLAM_SOURCE_DIR) + "/config/victoria_park.yaml";
-  offline.plot = false;
-  offline.progress = false;
+  const ekf_slam::OfflineOptions offline = test_files::quietOfflineOptions(
+      bag, std::string(EKF_SLAM_SOURCE_DIR) + "/config/victoria_park.yaml", dir.file("offline"));
   std::ostringstream log;
   nlohmann::json metrics;
   ASSERT_NO_THROW(metrics = nlohmann::json::parse(ekf_slam::runOffline(offline, log).metrics_json))

@@ -23,6 +23,7 @@
 #include "ekf_slam/ros/victoria_park_bag.h"
 #include "ekf_slam/tools/association_problem.h"
 #include "ekf_slam/tools/yaml_parameter_source.h"
+#include "offline_test_options.h"
 #include "test_files.h"
 
 namespace fs = std::filesystem;
@@ -79,13 +80,8 @@ class OfflineRunnerTest : public testing::Test {
     }
   }
   OfflineOptions options(const std::string& out) const {
-    OfflineOptions o;
-    o.bag_path = (*dir_ / "window.bag").string();
-    o.out_dir = (*dir_ / out).string();
-    o.params_path = kConfig;
-    o.progress = false;
-    o.plot = false;
-    return o;
+    return test_files::quietOfflineOptions((*dir_ / "window.bag").string(), kConfig,
+                                           (*dir_ / out).string());
   }
 
   static fs::path* dir_;

@@ -30,6 +30,7 @@
 #include "ekf_slam/core/simulation/simulator.h"
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/simulation_bag.h"
+#include "offline_test_options.h"
 #include "test_files.h"
 
 namespace fs = std::filesystem;
@@ -457,12 +458,8 @@ TEST(Simulate, OfflineRunnerMapsTheWorld) {
   o.out_path = (dir.path() / "tiny.bag").string();
   const SimulationBagSummary s = writeSimulationBag(o, log);
 
-  OfflineOptions offline;
-  offline.bag_path = s.bag_path;
-  offline.params_path = s.params_path;
-  offline.out_dir = (dir.path() / "offline").string();
-  offline.plot = false;
-  offline.progress = false;
+  const OfflineOptions offline =
+      test_files::quietOfflineOptions(s.bag_path, s.params_path, dir.file("offline"));
   std::ostringstream offline_log;
   OfflineSummary r;
   ASSERT_NO_THROW(r = runOffline(offline, offline_log)) << offline_log.str();

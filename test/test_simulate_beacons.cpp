@@ -17,6 +17,7 @@
 #include "ekf_slam/core/parameters.h"
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/simulation_bag.h"
+#include "offline_test_options.h"
 #include "test_files.h"
 
 namespace ekf_slam {
@@ -55,12 +56,8 @@ TEST(SimulateBeacons, ScanBagIsMappedAndScoredLikeEvaluate) {
   EXPECT_EQ(yaml["extractor"].as<std::string>(), "ekf_slam/BeaconExtractor");
   EXPECT_DOUBLE_EQ(yaml["BeaconExtractor"]["beacon_radius"].as<double>(), 0.05);
 
-  OfflineOptions offline;
-  offline.bag_path = s.bag_path;
-  offline.params_path = s.params_path;
-  offline.out_dir = (dir.path() / "offline").string();
-  offline.plot = false;
-  offline.progress = false;
+  const OfflineOptions offline =
+      test_files::quietOfflineOptions(s.bag_path, s.params_path, dir.file("offline"));
   std::ostringstream offline_log;
   OfflineSummary r;
   ASSERT_NO_THROW(r = runOffline(offline, offline_log)) << offline_log.str();

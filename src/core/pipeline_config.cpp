@@ -101,6 +101,8 @@ void PipelineConfig::validate() const {
   count(lost_unpaired_scans, "lost_unpaired_scans");
   count(lost_min_observations, "lost_min_observations");
   count(lost_min_expected, "lost_min_expected");
+  requireParameter(lost_min_paired_share >= 0.0 && lost_min_paired_share <= 1.0,
+                   "lost_min_paired_share", "must lie in [0, 1]", lost_min_paired_share);
   count(lost_recent_scans, "lost_recent_scans");
   nonNegative(lost_view_range, "lost_view_range");
   requireParameter(lost_field_of_view > 0.0 && lost_field_of_view <= 2.0 * M_PI,
@@ -200,6 +202,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_unpaired_scans = r.integer("lost_unpaired_scans", c.lost_unpaired_scans, 0, 100000);
   c.lost_min_observations = r.integer("lost_min_observations", c.lost_min_observations, 0, 100000);
   c.lost_min_expected = r.integer("lost_min_expected", c.lost_min_expected, 0, 100000);
+  c.lost_min_paired_share = r.inRange("lost_min_paired_share", c.lost_min_paired_share, 0.0, 1.0);
   c.lost_recent_scans = r.integer("lost_recent_scans", c.lost_recent_scans, 0, 100000);
   c.lost_view_range = r.nonNegative("lost_view_range", c.lost_view_range);
   c.lost_field_of_view = r.inRange("lost_field_of_view", c.lost_field_of_view, 1e-6, 2.0 * M_PI);

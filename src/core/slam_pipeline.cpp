@@ -150,7 +150,15 @@ void SlamPipeline::checkLost(ScanReport* report) {
   int established = 0;
   for (std::size_t i = 0; i < a.decision.size(); ++i)
     established += a.decision[i] == Decision::kPaired && !recent(a.landmark[i]);
-  if (established > 0) {
+  // lost_min_paired_share > 0: a few chance pairings among many landmarks in view still count
+  // as unpaired.
+  const bool share_rule = config_.lost_min_paired_share > 0.0;
+  if (share_rule) report->landmarks_expected = landmarksInView();
+  const bool paired_enough = share_rule
+                                 ? established > 0 && established >= config_.lost_min_paired_share *
+                                                                         report->landmarks_expected
+                                 : established > 0;
+  if (paired_enough) {
     unpaired_streak_ = 0;
   } else if (n >= config_.lost_min_observations) {
     ++unpaired_streak_;
@@ -163,7 +171,7 @@ void SlamPipeline::checkLost(ScanReport* report) {
   }
   const bool unpaired =
       config_.lost_unpaired_scans > 0 && unpaired_streak_ >= config_.lost_unpaired_scans;
-  if (unpaired) report->landmarks_expected = landmarksInView();
+  if (unpaired && !share_rule) report->landmarks_expected = landmarksInView();
   const bool rule1 = unpaired && report->landmarks_expected >= config_.lost_min_expected;
   const bool rule2 = config_.lost_nis_scans > 0 && nis_streak_ >= config_.lost_nis_scans;
   if (rule1 || rule2) {

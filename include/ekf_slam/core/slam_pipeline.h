@@ -101,6 +101,11 @@ struct PipelineConfig {
   int lost_unpaired_scans = 5;
   int lost_min_observations = 3;
   int lost_min_expected = 3;
+  /// Rule 1 counts a scan as unpaired when fewer established landmarks were paired than this
+  /// share of those in view (0: when none was, the rule as first written). A sensor that sees
+  /// most of what is in view (P_D near 1) can set about half its P_D: a kidnapped filter that
+  /// sees many landmarks pairs a few by chance, which resets the count when the share is 0.
+  double lost_min_paired_share = 0.0;
   /// Landmarks created fewer than this many scans ago are "recent": pairing them does not count
   /// for rule 1, they are not "in view", and they are discarded when the pipeline goes lost.
   int lost_recent_scans = 20;

@@ -55,6 +55,12 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
       // Lost rule 1 counts the landmarks the sensor should see.
       {"lost_field_of_view", text(std::min(world.sensor.field_of_view, 2.0 * M_PI))},
   };
+  // ... and a scan pairing fewer than half of the detections expected of them counts as
+  // unpaired (docs/relocalisation.md): the sensor's lowest detection probability in its region.
+  const SensorSpec& s = world.sensor;
+  const double pd =
+      std::min(s.detectionProbability(s.min_range), s.detectionProbability(coveringRange(world)));
+  p["lost_min_paired_share"] = text(0.5 * pd);
   if (world.pose_delta_odometry) {
     // The simulator's noise on one increment of length d = v dt turning by a = w dt, with
     // w = v tan(steer) / L: translation sigma_v dt = (sigma_v / v) d; rotation

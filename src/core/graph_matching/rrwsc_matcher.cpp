@@ -91,9 +91,9 @@ void RrwscMatcher::buildCandidates(const MatchInput& in, const RrwscParams& p) {
   cand_node_.clear();
   for (int i = 0; i < m; ++i) {
     // Upper bound of every landmark's log affinity: log position factor (0 without a prior) +
-    // the ring-histogram term (ringDistance <= shapeContextDistance), best first. Once k
-    // candidates beat the next bound no later landmark can enter the top k, so its full shape
-    // context need not be compared (the same top k as comparing all).
+    // the ring-histogram term (ringDistance <= shapeContextDistance). Once k candidates beat a
+    // landmark's bound it cannot enter the top k, so its full shape context need not be compared
+    // (the same top k as comparing all).
     order_.clear();
     int nearest = -1;
     for (int j = 0; j < n; ++j) {
@@ -106,14 +106,16 @@ void RrwscMatcher::buildCandidates(const MatchInput& in, const RrwscParams& p) {
           log_position(i, j) - ringDistance(obs_rings_[i], map_rings_[j]) / p.descriptor_scale;
       order_.emplace_back(-log_bound, j);  // ties by landmark index
     }
-    std::sort(order_.begin(), order_.end());
+    // The k best bounds first: their affinities set the bar for the others, which are then
+    // visited in any order (the shortlist below makes the result independent of it; no sort).
     const int k = std::min<int>(p.candidates_per_observation, static_cast<int>(order_.size()));
+    std::nth_element(order_.begin(), order_.begin() + k, order_.end());
     best_.clear();      // every landmark compared
     top_keys_.clear();  // min-heap of the k best log affinities so far
     for (const auto& [neg_log_bound, j] : order_) {
       if (static_cast<int>(top_keys_.size()) == k &&
           -neg_log_bound < top_keys_.front() - kLogMargin) {
-        break;
+        continue;
       }
       const double log_pos = log_position(i, j);
       const double distance = descriptor(i, j);
@@ -184,7 +186,7 @@ void RrwscMatcher::buildAffinity(const MatchInput& in, const RrwscParams& p) {
         if (k != i) near_.emplace_back(obs_dist_(i, k), k);
       }
       const int keep = std::min<int>(p.edge_neighbours, static_cast<int>(near_.size()));
-      std::partial_sort(near_.begin(), near_.begin() + keep, near_.end());
+      std::nth_element(near_.begin(), near_.begin() + keep, near_.end());  // the set suffices
       for (int q = 0; q < keep; ++q) {
         linked_[static_cast<std::size_t>(i) * m + near_[q].second] = 1;
         linked_[static_cast<std::size_t>(near_[q].second) * m + i] = 1;

@@ -90,34 +90,26 @@ void RrwscMatcher::buildCandidates(const MatchInput& in, const RrwscParams& p) {
   cand_begin_.assign(1, 0);
   cand_node_.clear();
   for (int i = 0; i < m; ++i) {
-    // Upper bound of every landmark's log affinity: log position factor (0 without a prior) +
-    // the ring-histogram term (ringDistance <= shapeContextDistance). Once k candidates beat a
-    // landmark's bound it cannot enter the top k, so its full shape context need not be compared
-    // (the same top k as comparing all).
-    order_.clear();
+    // Landmarks in index order. Upper bound of a landmark's log affinity: log position factor
+    // (0 without a prior) + the ring-histogram term (ringDistance <= shapeContextDistance). Once
+    // k candidates beat that bound the landmark cannot enter the top k, so its full shape context
+    // need not be compared (the same top k as comparing all).
+    const int k = p.candidates_per_observation;
     int nearest = -1;
+    best_.clear();      // every landmark compared
+    top_keys_.clear();  // min-heap of the k best log affinities so far
     for (int j = 0; j < n; ++j) {
       if (prior) {
         const double mij = in.mahalanobis(i, j);
         if (!(mij < kInf)) continue;
         if (nearest < 0 || mij < in.mahalanobis(i, nearest)) nearest = j;
       }
-      const double log_bound =
-          log_position(i, j) - ringDistance(obs_rings_[i], map_rings_[j]) / p.descriptor_scale;
-      order_.emplace_back(-log_bound, j);  // ties by landmark index
-    }
-    // The k best bounds first: their affinities set the bar for the others, which are then
-    // visited in any order (the shortlist below makes the result independent of it; no sort).
-    const int k = std::min<int>(p.candidates_per_observation, static_cast<int>(order_.size()));
-    std::nth_element(order_.begin(), order_.begin() + k, order_.end());
-    best_.clear();      // every landmark compared
-    top_keys_.clear();  // min-heap of the k best log affinities so far
-    for (const auto& [neg_log_bound, j] : order_) {
+      const double log_pos = log_position(i, j);
       if (static_cast<int>(top_keys_.size()) == k &&
-          -neg_log_bound < top_keys_.front() - kLogMargin) {
+          log_pos - ringDistance(obs_rings_[i], map_rings_[j]) / p.descriptor_scale <
+              top_keys_.front() - kLogMargin) {
         continue;
       }
-      const double log_pos = log_position(i, j);
       const double distance = descriptor(i, j);
       const double key = log_pos - distance / p.descriptor_scale;
       best_.push_back({key, log_pos, distance, 0.0, j});
@@ -130,7 +122,8 @@ void RrwscMatcher::buildCandidates(const MatchInput& in, const RrwscParams& p) {
         std::push_heap(top_keys_.begin(), top_keys_.end(), std::greater<>());
       }
     }
-    const double shortlist = top_keys_.empty() ? kInf : top_keys_.front() - kLogMargin;
+    const double shortlist =
+        static_cast<int>(top_keys_.size()) == k ? top_keys_.front() - kLogMargin : -kInf;
     best_.erase(std::remove_if(best_.begin(), best_.end(),
                                [&](const Ranked& r) { return r.log_node < shortlist; }),
                 best_.end());

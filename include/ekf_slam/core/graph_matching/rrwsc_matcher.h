@@ -107,7 +107,6 @@ class RrwscMatcher {
   std::vector<int> cand_begin_;    ///< candidates of observation i: [begin[i], begin[i+1])
   std::vector<double> cand_node_;  ///< node affinity per candidate
   std::vector<double> node_root_;  ///< its square root
-  std::vector<std::pair<double, int>> order_;
   std::vector<Ranked> best_;
   std::vector<double> top_keys_;
   Eigen::MatrixXd obs_dist_, obs_var_, map_dist_, map_var_;

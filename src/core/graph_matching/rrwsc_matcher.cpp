@@ -215,19 +215,24 @@ void RrwscMatcher::buildAffinity(const MatchInput& in, const RrwscParams& p) {
   // K is symmetric: each pair of candidates of linked observations is checked once (c < d:
   // candidates are numbered by observation), and its two entries differ only in the order of the
   // node factors.
+  cand_local_.resize(n_cand);
+  for (int c = 0; c < n_cand; ++c) cand_local_[c] = local_of_[graph_.col[c]];
   edges_.clear();
   for (int c = 0; c < n_cand; ++c) {
     const int i = graph_.row[c];
-    const int a = local_of_[graph_.col[c]];
+    const int a = cand_local_[c];
+    // Column a of the (symmetric) landmark matrices: the entries (a, b) in sequence.
+    const double* dist_a = map_dist_.data() + static_cast<std::size_t>(a) * u_n;
+    const double* var_a = map_var_.data() + static_cast<std::size_t>(a) * u_n;
     for (int k = i + 1; k < m; ++k) {
       if (!linked_[static_cast<std::size_t>(i) * m + k]) continue;
       const double d_obs = obs_dist_(i, k);
       const double var_obs = obs_var_(i, k);
       for (int d = cand_begin_[k]; d < cand_begin_[k + 1]; ++d) {
-        const int b = local_of_[graph_.col[d]];
+        const int b = cand_local_[d];
         if (b == a) continue;  // one landmark for two observations: conflicting
-        const double var = var_obs + map_var_(a, b);
-        const double e = d_obs - map_dist_(a, b);
+        const double var = var_obs + var_a[b];
+        const double e = d_obs - dist_a[b];
         if (e * e > gate2 * var) continue;
         edges_.push_back({c, d, std::exp(-0.5 * e * e / var)});
       }

@@ -113,6 +113,7 @@ class RrwscMatcher {
   std::vector<char> linked_;  ///< observation pairs that carry edges
   std::vector<std::pair<double, int>> near_;
   std::vector<int> used_, local_of_;  ///< landmarks among the candidates, and back
+  std::vector<int> cand_local_;       ///< per candidate: its landmark's index in used_
   /// Edge between candidates c < d: exp(-e^2 / 2 sigma^2), before the node weighting.
   struct Edge {
     int c, d;

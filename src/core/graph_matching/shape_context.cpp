@@ -14,10 +14,20 @@ constexpr double kBinWidth = 2.0 * M_PI / kShapeContextAngleBins;
 // between the two nearest angle bins (bin k is centred on k * 30 deg).
 void addSoft(int ring, double angle, double weight, ShapeContext* h) {
   double t = angle / kBinWidth;
-  t -= kShapeContextAngleBins * std::floor(t / kShapeContextAngleBins);  // [0, 12)
-  const int lo = static_cast<int>(t) % kShapeContextAngleBins;
+  // Wrap to [0, 12]. The angle is a difference of two atan2 values, so |t| < 24, where counting
+  // the thresholds passed gives floor(t / 12) exactly (no double lies within rounding of them)
+  // and, once t >= 0, truncation gives floor(t): std::floor's values without a division.
+  constexpr double kTurn = kShapeContextAngleBins;
+  if (std::abs(t) < 2.0 * kTurn) {
+    t -= kTurn * (static_cast<double>(t >= kTurn) - static_cast<double>(t < 0.0) -
+                  static_cast<double>(t < -kTurn));
+  } else {
+    t -= kTurn * std::floor(t / kTurn);
+  }
+  const int whole = static_cast<int>(t);
+  const int lo = whole % kShapeContextAngleBins;
   const int hi = (lo + 1) % kShapeContextAngleBins;
-  const double f = t - std::floor(t);
+  const double f = t - whole;
   (*h)[ring * kShapeContextAngleBins + lo] += weight * (1.0 - f);
   (*h)[ring * kShapeContextAngleBins + hi] += weight * f;
 }
@@ -83,11 +93,17 @@ void ShapeContextBuilder::build(const std::vector<Eigen::Vector2d>& points,
   // receives its neighbours' contributions in the order of their index, as a loop per point
   // would add them.
   const auto in_reach = [&](double r) { return !(r > params.max_radius || r <= 0.0); };
+  ring_.resize(static_cast<std::size_t>(n) * (n > 0 ? n - 1 : 0) / 2);
+  std::size_t pair = 0;  // index of (i, k) in the order visited
   for (int i = 0; i < n; ++i) {
-    for (int k = i + 1; k < n; ++k) {
+    for (int k = i + 1; k < n; ++k, ++pair) {
       const Eigen::Vector2d d = points[k] - points[i];
       const double r = d.norm();
+      ring_[pair] = -1;
       if (!in_reach(r)) continue;
+      ring_[pair] = static_cast<signed char>(
+          std::clamp(static_cast<int>(std::floor((std::log(r) - log_min) / ring_width)), 0,
+                     kShapeContextDistanceBins - 1));
       // Reference direction: 1/d-weighted circular mean of the directions to the neighbours.
       const Eigen::Vector2d w = d / (r * std::max(r, params.min_radius));
       work_[i].resultant += w;
@@ -102,14 +118,12 @@ void ShapeContextBuilder::build(const std::vector<Eigen::Vector2d>& points,
     q.reference =
         q.resultant.squaredNorm() > 1e-18 ? std::atan2(q.resultant.y(), q.resultant.x()) : 0.0;
   }
+  pair = 0;
   for (int i = 0; i < n; ++i) {
-    for (int k = i + 1; k < n; ++k) {
+    for (int k = i + 1; k < n; ++k, ++pair) {
+      const int ring = ring_[pair];
+      if (ring < 0) continue;
       const Eigen::Vector2d d = points[k] - points[i];
-      const double r = d.norm();
-      if (!in_reach(r)) continue;
-      const int ring =
-          std::clamp(static_cast<int>(std::floor((std::log(r) - log_min) / ring_width)), 0,
-                     kShapeContextDistanceBins - 1);
       addSoft(ring, std::atan2(d.y(), d.x()) - work_[i].reference, 1.0, &(*out)[i]);
       addSoft(ring, std::atan2(-d.y(), -d.x()) - work_[k].reference, 1.0, &(*out)[k]);
     }

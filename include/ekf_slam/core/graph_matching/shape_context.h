@@ -51,6 +51,7 @@ class ShapeContextBuilder {
     double neighbours = 0.0;    ///< in reach
   };
   std::vector<Point> work_;
+  std::vector<signed char> ring_;  ///< per pair of points: its log-distance ring, -1 out of reach
 };
 
 /// Chi-square histogram distance 0.5 sum (a - b)^2 / (a + b) over the bins, in [0, 1].

@@ -79,6 +79,39 @@ TEST(ShapeContext, ShiftToleratesAReferenceTiltedByOneBin) {
   EXPECT_NEAR(shapeContextDistance(x, y), 0.0, 1e-15);
 }
 
+// The distance visits only the bins non-zero in both histograms (bit masks rotated per ring):
+// it must equal the least dense chi-square over the three angle shifts, including the bins that
+// wrap around a ring.
+TEST(ShapeContext, SparseDistanceEqualsTheDenseOneOverTheShifts) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const auto sparse = [&](double density) {
+    ShapeContext h = ShapeContext::Zero();
+    for (int k = 0; k < kShapeContextBins; ++k) h[k] = u(rng) < density ? u(rng) : 0.0;
+    if (h.sum() > 0.0) h /= h.sum();
+    return h;
+  };
+  // Angle bin k of `a` meets bin k + shift of `b` in the same ring.
+  const auto rotated = [](const ShapeContext& b, int shift) {
+    ShapeContext r;
+    for (int ring = 0; ring < kShapeContextDistanceBins; ++ring) {
+      for (int k = 0; k < kShapeContextAngleBins; ++k) {
+        const int from = (k + shift + kShapeContextAngleBins) % kShapeContextAngleBins;
+        r[ring * kShapeContextAngleBins + k] = b[ring * kShapeContextAngleBins + from];
+      }
+    }
+    return r;
+  };
+  for (int trial = 0; trial < 200; ++trial) {
+    const ShapeContext a = sparse(trial % 2 ? 0.3 : 0.8), b = sparse(trial % 3 ? 0.3 : 0.0);
+    double dense = 1.0;
+    for (int shift = -1; shift <= 1; ++shift) {
+      dense = std::min(dense, chiSquareDistance(a, rotated(b, shift)));
+    }
+    EXPECT_NEAR(shapeContextDistance(a, b), dense, 1e-12) << "trial " << trial;
+  }
+}
+
 }  // namespace
 }  // namespace ekf_slam
 

@@ -39,38 +39,39 @@ void ReweightedRandomWalks::sinkhorn(const MatchGraph& g, const RrwParams& p, Ei
   const int other = pad_rows ? g.cols : g.rows;
   const double dummies = std::abs(g.rows - g.cols);
   slack_.assign(other, dummies);
-  row_sum_.resize(g.rows);
+  row_sum_.assign(g.rows, 0.0);
   col_sum_.resize(g.cols);
+  // Each pass over the candidates normalises one side and sums the other (the same sums, in the
+  // same order, as a pass of their own).
+  for (int c = 0; c < n; ++c) row_sum_[g.row[c]] += (*a)[c];
   for (int it = 0; it < p.sinkhorn_iterations; ++it) {
     // Rows.
-    std::fill(row_sum_.begin(), row_sum_.end(), 0.0);
-    for (int c = 0; c < n; ++c) row_sum_[g.row[c]] += (*a)[c];
     if (!pad_rows) {
       for (int r = 0; r < g.rows; ++r) row_sum_[r] += slack_[r];
       for (int r = 0; r < g.rows; ++r) {
         if (row_sum_[r] > 0.0) slack_[r] /= row_sum_[r];
       }
     }
+    std::fill(col_sum_.begin(), col_sum_.end(), 0.0);
     for (int c = 0; c < n; ++c) {
       if (row_sum_[g.row[c]] > 0.0) (*a)[c] /= row_sum_[g.row[c]];
+      col_sum_[g.col[c]] += (*a)[c];
     }
     if (pad_rows) normaliseDummies(dummies);  // the dummy rows sum to one each
     // Columns.
-    std::fill(col_sum_.begin(), col_sum_.end(), 0.0);
-    for (int c = 0; c < n; ++c) col_sum_[g.col[c]] += (*a)[c];
     if (pad_rows) {
       for (int s = 0; s < g.cols; ++s) col_sum_[s] += slack_[s];
       for (int s = 0; s < g.cols; ++s) {
         if (col_sum_[s] > 0.0) slack_[s] /= col_sum_[s];
       }
     }
+    std::fill(row_sum_.begin(), row_sum_.end(), 0.0);
     for (int c = 0; c < n; ++c) {
       if (col_sum_[g.col[c]] > 0.0) (*a)[c] /= col_sum_[g.col[c]];
+      row_sum_[g.row[c]] += (*a)[c];
     }
     if (!pad_rows) normaliseDummies(dummies);  // the dummy columns sum to one each
     // Converged when the rows (normalised before the column step) still sum to one.
-    std::fill(row_sum_.begin(), row_sum_.end(), 0.0);
-    for (int c = 0; c < n; ++c) row_sum_[g.row[c]] += (*a)[c];
     double worst = 0.0;
     for (int r = 0; r < g.rows; ++r) {
       const double total = row_sum_[r] + (pad_rows ? 0.0 : slack_[r]);

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 namespace ekf_slam {
@@ -54,79 +55,93 @@ void RrwscMatcher::buildCandidates(const MatchInput& in, const RrwscParams& p) {
   const int m = static_cast<int>(in.observed.size());
   const int n = static_cast<int>(in.landmarks.size());
   const bool prior = in.mahalanobis.rows() == m && in.mahalanobis.cols() == n && m > 0;
-  shapeContexts(in.observed, p.context, &obs_sc_);
-  shapeContexts(in.landmarks, p.context, &map_sc_);
+  contexts_.build(in.observed, p.context, &obs_sc_);
+  contexts_.build(in.landmarks, p.context, &map_sc_);
   obs_rings_.resize(m);
   map_rings_.resize(n);
-  for (int i = 0; i < m; ++i) obs_rings_[i] = ringHistogram(obs_sc_[i]);
-  for (int j = 0; j < n; ++j) map_rings_[j] = ringHistogram(map_sc_[j]);
+  obs_support_.resize(m);
+  map_support_.resize(n);
+  for (int i = 0; i < m; ++i) {
+    obs_rings_[i] = ringHistogram(obs_sc_[i]);
+    obs_support_[i] = shapeContextSupport(obs_sc_[i]);
+  }
+  for (int j = 0; j < n; ++j) {
+    map_rings_[j] = ringHistogram(map_sc_[j]);
+    map_support_[j] = shapeContextSupport(map_sc_[j]);
+  }
+  // The search ranks landmarks by the logarithm of their affinity (no exp per landmark). Its
+  // rounding differs from that of the product of two exps, so it only shortlists: whatever lies
+  // within kLogMargin of the k-th best, then ranked by the affinity itself (exact top k, ties by
+  // index).
+  constexpr double kLogMargin = 1e-9;
+  const auto log_position = [&](int i, int j) {
+    return prior && p.position_weight > 0.0
+               ? -0.5 * p.position_weight * std::min(in.mahalanobis(i, j), p.position_cap)
+               : 0.0;
+  };
+  const auto descriptor = [&](int i, int j) {
+    return shapeContextDistance(obs_sc_[i], obs_support_[i], map_sc_[j], map_support_[j]);
+  };
+  const auto affinity = [&](double log_pos, double distance) {
+    const double position = prior && p.position_weight > 0.0 ? std::exp(log_pos) : 1.0;
+    return position * std::exp(-distance / p.descriptor_scale);
+  };
   graph_.clear(m, n);
   cand_begin_.assign(1, 0);
   cand_node_.clear();
   for (int i = 0; i < m; ++i) {
-    // Upper bound of every landmark's node affinity: position factor (1 without a prior) x the
-    // ring-histogram affinity (ringDistance <= shapeContextDistance), best first. Once k
-    // candidates beat the next bound no later landmark can enter the top k, so its full shape
-    // context need not be compared (the same top k as comparing all).
-    order_.clear();
+    // Landmarks in index order. Upper bound of a landmark's log affinity: log position factor
+    // (0 without a prior) + the ring-histogram term (ringDistance <= shapeContextDistance). Once
+    // k candidates beat that bound the landmark cannot enter the top k, so its full shape context
+    // need not be compared (the same top k as comparing all).
+    const int k = p.candidates_per_observation;
     int nearest = -1;
+    best_.clear();      // every landmark compared
+    top_keys_.clear();  // min-heap of the k best log affinities so far
     for (int j = 0; j < n; ++j) {
-      double position = 1.0;
       if (prior) {
         const double mij = in.mahalanobis(i, j);
         if (!(mij < kInf)) continue;
         if (nearest < 0 || mij < in.mahalanobis(i, nearest)) nearest = j;
-        if (p.position_weight > 0.0) {
-          position = std::exp(-0.5 * p.position_weight * std::min(mij, p.position_cap));
-        }
       }
-      const double bound =
-          position * std::exp(-ringDistance(obs_rings_[i], map_rings_[j]) / p.descriptor_scale);
-      order_.emplace_back(-bound, j);  // ties by landmark index
-    }
-    std::sort(order_.begin(), order_.end());
-    const int k = std::min<int>(p.candidates_per_observation, static_cast<int>(order_.size()));
-    best_.clear();  // (node affinity, landmark), a min-heap of the k best so far
-    const auto worse = [](const std::pair<double, int>& a, const std::pair<double, int>& b) {
-      return a.first > b.first || (a.first == b.first && a.second < b.second);
-    };
-    for (const auto& [neg_bound, j] : order_) {
-      if (static_cast<int>(best_.size()) == k && -neg_bound <= best_.front().first) break;
-      double position = 1.0;
-      if (prior && p.position_weight > 0.0) {
-        position =
-            std::exp(-0.5 * p.position_weight * std::min(in.mahalanobis(i, j), p.position_cap));
+      const double log_pos = log_position(i, j);
+      if (static_cast<int>(top_keys_.size()) == k &&
+          log_pos - ringDistance(obs_rings_[i], map_rings_[j]) / p.descriptor_scale <
+              top_keys_.front() - kLogMargin) {
+        continue;
       }
-      const double node =
-          position * std::exp(-shapeContextDistance(obs_sc_[i], map_sc_[j]) / p.descriptor_scale);
-      if (static_cast<int>(best_.size()) < k) {
-        best_.emplace_back(node, j);
-        std::push_heap(best_.begin(), best_.end(), worse);
-      } else if (node > best_.front().first) {
-        std::pop_heap(best_.begin(), best_.end(), worse);
-        best_.back() = {node, j};
-        std::push_heap(best_.begin(), best_.end(), worse);
+      const double distance = descriptor(i, j);
+      const double key = log_pos - distance / p.descriptor_scale;
+      best_.push_back({key, log_pos, distance, 0.0, j});
+      if (static_cast<int>(top_keys_.size()) < k) {
+        top_keys_.push_back(key);
+        std::push_heap(top_keys_.begin(), top_keys_.end(), std::greater<>());
+      } else if (key > top_keys_.front()) {
+        std::pop_heap(top_keys_.begin(), top_keys_.end(), std::greater<>());
+        top_keys_.back() = key;
+        std::push_heap(top_keys_.begin(), top_keys_.end(), std::greater<>());
       }
     }
-    std::sort(best_.begin(), best_.end(), [](const auto& a, const auto& b) {
-      return a.first > b.first || (a.first == b.first && a.second < b.second);
+    const double shortlist =
+        static_cast<int>(top_keys_.size()) == k ? top_keys_.front() - kLogMargin : -kInf;
+    best_.erase(std::remove_if(best_.begin(), best_.end(),
+                               [&](const Ranked& r) { return r.log_node < shortlist; }),
+                best_.end());
+    for (Ranked& r : best_) r.node = affinity(r.log_position, r.distance);
+    std::sort(best_.begin(), best_.end(), [](const Ranked& a, const Ranked& b) {
+      return a.node > b.node || (a.node == b.node && a.landmark < b.landmark);
     });
+    best_.resize(std::min<int>(k, static_cast<int>(best_.size())));
     bool has_nearest = nearest < 0;
-    for (const auto& [node, j] : best_) {
-      graph_.addCandidate(i, j);
-      cand_node_.push_back(node);
-      has_nearest = has_nearest || j == nearest;
+    for (const Ranked& r : best_) {
+      graph_.addCandidate(i, r.landmark);
+      cand_node_.push_back(r.node);
+      has_nearest = has_nearest || r.landmark == nearest;
     }
     // The prior's own best guess always takes part, however its descriptor scores.
     if (!has_nearest) {
-      double position = 1.0;
-      if (p.position_weight > 0.0) {
-        position = std::exp(-0.5 * p.position_weight *
-                            std::min(in.mahalanobis(i, nearest), p.position_cap));
-      }
       graph_.addCandidate(i, nearest);
-      cand_node_.push_back(position * std::exp(-shapeContextDistance(obs_sc_[i], map_sc_[nearest]) /
-                                               p.descriptor_scale));
+      cand_node_.push_back(affinity(log_position(i, nearest), descriptor(i, nearest)));
     }
     cand_begin_.push_back(graph_.size());
   }
@@ -164,7 +179,7 @@ void RrwscMatcher::buildAffinity(const MatchInput& in, const RrwscParams& p) {
         if (k != i) near_.emplace_back(obs_dist_(i, k), k);
       }
       const int keep = std::min<int>(p.edge_neighbours, static_cast<int>(near_.size()));
-      std::partial_sort(near_.begin(), near_.begin() + keep, near_.end());
+      std::nth_element(near_.begin(), near_.begin() + keep, near_.end());  // the set suffices
       for (int q = 0; q < keep; ++q) {
         linked_[static_cast<std::size_t>(i) * m + near_[q].second] = 1;
         linked_[static_cast<std::size_t>(near_[q].second) * m + i] = 1;
@@ -197,26 +212,52 @@ void RrwscMatcher::buildAffinity(const MatchInput& in, const RrwscParams& p) {
   // the distances separate what the nodes cannot.
   node_root_.resize(n_cand);
   for (int c = 0; c < n_cand; ++c) node_root_[c] = std::sqrt(cand_node_[c]);
+  // K is symmetric: each pair of candidates of linked observations is checked once (c < d:
+  // candidates are numbered by observation), and its two entries differ only in the order of the
+  // node factors.
+  cand_local_.resize(n_cand);
+  for (int c = 0; c < n_cand; ++c) cand_local_[c] = local_of_[graph_.col[c]];
+  edges_.clear();
   for (int c = 0; c < n_cand; ++c) {
-    graph_.beginRow();
-    graph_.addEntry(c, cand_node_[c]);
     const int i = graph_.row[c];
-    const int a = local_of_[graph_.col[c]];
-    for (int k = 0; k < m; ++k) {
-      if (k == i || !linked_[static_cast<std::size_t>(i) * m + k]) continue;
+    const int a = cand_local_[c];
+    // Column a of the (symmetric) landmark matrices: the entries (a, b) in sequence.
+    const double* dist_a = map_dist_.data() + static_cast<std::size_t>(a) * u_n;
+    const double* var_a = map_var_.data() + static_cast<std::size_t>(a) * u_n;
+    for (int k = i + 1; k < m; ++k) {
+      if (!linked_[static_cast<std::size_t>(i) * m + k]) continue;
       const double d_obs = obs_dist_(i, k);
       const double var_obs = obs_var_(i, k);
       for (int d = cand_begin_[k]; d < cand_begin_[k + 1]; ++d) {
-        const int b = local_of_[graph_.col[d]];
+        const int b = cand_local_[d];
         if (b == a) continue;  // one landmark for two observations: conflicting
-        const double var = var_obs + map_var_(a, b);
-        const double e = d_obs - map_dist_(a, b);
+        const double var = var_obs + var_a[b];
+        const double e = d_obs - dist_a[b];
         if (e * e > gate2 * var) continue;
-        graph_.addEntry(d, std::exp(-0.5 * e * e / var) * node_root_[c] * node_root_[d]);
+        edges_.push_back({c, d, std::exp(-0.5 * e * e / var)});
       }
     }
   }
-  graph_.finish();
+  // Compressed rows: the diagonal, then the columns in ascending order (the pairs come ordered
+  // by c then d, so row d receives its columns c < d in order before its own c > d).
+  graph_.start.assign(n_cand + 1, 0);
+  for (const Edge& edge : edges_) {
+    ++graph_.start[edge.c + 1];
+    ++graph_.start[edge.d + 1];
+  }
+  for (int c = 0; c < n_cand; ++c) graph_.start[c + 1] += graph_.start[c] + 1;
+  graph_.index.resize(graph_.start[n_cand]);
+  graph_.value.resize(graph_.start[n_cand]);
+  fill_.assign(graph_.start.begin(), graph_.start.end() - 1);
+  const auto put = [&](int row, int col, double v) {
+    graph_.index[fill_[row]] = col;
+    graph_.value[fill_[row]++] = v;
+  };
+  for (int c = 0; c < n_cand; ++c) put(c, c, cand_node_[c]);
+  for (const Edge& edge : edges_) {
+    put(edge.c, edge.d, edge.affinity * node_root_[edge.c] * node_root_[edge.d]);
+    put(edge.d, edge.c, edge.affinity * node_root_[edge.d] * node_root_[edge.c]);
+  }
 }
 
 void RrwscMatcher::match(const MatchInput& in, const RrwscParams& p,

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace ekf_slam {
 namespace {
@@ -13,10 +14,20 @@ constexpr double kBinWidth = 2.0 * M_PI / kShapeContextAngleBins;
 // between the two nearest angle bins (bin k is centred on k * 30 deg).
 void addSoft(int ring, double angle, double weight, ShapeContext* h) {
   double t = angle / kBinWidth;
-  t -= kShapeContextAngleBins * std::floor(t / kShapeContextAngleBins);  // [0, 12)
-  const int lo = static_cast<int>(t) % kShapeContextAngleBins;
+  // Wrap to [0, 12]. The angle is a difference of two atan2 values, so |t| < 24, where counting
+  // the thresholds passed gives floor(t / 12) exactly (no double lies within rounding of them)
+  // and, once t >= 0, truncation gives floor(t): std::floor's values without a division.
+  constexpr double kTurn = kShapeContextAngleBins;
+  if (std::abs(t) < 2.0 * kTurn) {
+    t -= kTurn * (static_cast<double>(t >= kTurn) - static_cast<double>(t < 0.0) -
+                  static_cast<double>(t < -kTurn));
+  } else {
+    t -= kTurn * std::floor(t / kTurn);
+  }
+  const int whole = static_cast<int>(t);
+  const int lo = whole % kShapeContextAngleBins;
   const int hi = (lo + 1) % kShapeContextAngleBins;
-  const double f = t - std::floor(t);
+  const double f = t - whole;
   (*h)[ring * kShapeContextAngleBins + lo] += weight * (1.0 - f);
   (*h)[ring * kShapeContextAngleBins + hi] += weight * f;
 }
@@ -32,74 +43,135 @@ double chiSquare(const Histogram& a, const Histogram& b) {
   return 0.5 * sum;
 }
 
+// Bit masks of the first and the last angle bin of every ring.
+constexpr std::uint64_t ringBits(int angle_bin) {
+  std::uint64_t m = 0;
+  for (int ring = 0; ring < kShapeContextDistanceBins; ++ring) {
+    m |= std::uint64_t{1} << (ring * kShapeContextAngleBins + angle_bin);
+  }
+  return m;
+}
+constexpr std::uint64_t kRingFirstBits = ringBits(0);
+constexpr std::uint64_t kRingLastBits = ringBits(kShapeContextAngleBins - 1);
+
+// kShiftedBin[s][k]: the bin of `b` that bin k of `a` meets under angle shift s - 1.
+struct ShiftedBins {
+  int bin[3][kShapeContextBins];
+  constexpr ShiftedBins() : bin() {
+    for (int s = 0; s < 3; ++s) {
+      for (int k = 0; k < kShapeContextBins; ++k) {
+        const int ring = k / kShapeContextAngleBins;
+        const int angle =
+            (k % kShapeContextAngleBins + s - 1 + kShapeContextAngleBins) % kShapeContextAngleBins;
+        bin[s][k] = ring * kShapeContextAngleBins + angle;
+      }
+    }
+  }
+  constexpr const int* operator[](int s) const { return bin[s]; }
+};
+constexpr ShiftedBins kShiftedBin;
+
+static_assert(kShapeContextBins <= 64, "the supports are 64-bit masks");
+
 }  // namespace
 
 void shapeContexts(const std::vector<Eigen::Vector2d>& points, const ShapeContextParams& params,
                    std::vector<ShapeContext>* out) {
+  ShapeContextBuilder().build(points, params, out);
+}
+
+void ShapeContextBuilder::build(const std::vector<Eigen::Vector2d>& points,
+                                const ShapeContextParams& params, std::vector<ShapeContext>* out) {
   const int n = static_cast<int>(points.size());
   out->assign(n, ShapeContext::Zero());
+  work_.assign(n, Point{Eigen::Vector2d::Zero(), 0.0, 0.0});
   const double log_min = std::log(params.min_radius);
   const double ring_width =
       (std::log(params.max_radius) - log_min) / static_cast<double>(kShapeContextDistanceBins);
+  // Each unordered pair once: the difference, its norm and its ring serve both points (negating
+  // a difference is exact). Pairs are visited with i ascending, then k ascending, so every point
+  // receives its neighbours' contributions in the order of their index, as a loop per point
+  // would add them.
+  const auto in_reach = [&](double r) { return !(r > params.max_radius || r <= 0.0); };
+  ring_.resize(static_cast<std::size_t>(n) * (n > 0 ? n - 1 : 0) / 2);
+  std::size_t pair = 0;  // index of (i, k) in the order visited
   for (int i = 0; i < n; ++i) {
-    // Reference direction: 1/d-weighted circular mean of the directions to the neighbours.
-    Eigen::Vector2d resultant = Eigen::Vector2d::Zero();
-    for (int k = 0; k < n; ++k) {
-      if (k == i) continue;
+    for (int k = i + 1; k < n; ++k, ++pair) {
       const Eigen::Vector2d d = points[k] - points[i];
       const double r = d.norm();
-      if (r > params.max_radius || r <= 0.0) continue;
-      resultant += d / (r * std::max(r, params.min_radius));
-    }
-    // A perfectly balanced neighbourhood has no direction; its histogram is then (nearly)
-    // symmetric as well, so the arbitrary x axis costs little.
-    const double reference =
-        resultant.squaredNorm() > 1e-18 ? std::atan2(resultant.y(), resultant.x()) : 0.0;
-    ShapeContext& h = (*out)[i];
-    double total = 0.0;
-    for (int k = 0; k < n; ++k) {
-      if (k == i) continue;
-      const Eigen::Vector2d d = points[k] - points[i];
-      const double r = d.norm();
-      if (r > params.max_radius || r <= 0.0) continue;
-      const int ring =
+      ring_[pair] = -1;
+      if (!in_reach(r)) continue;
+      ring_[pair] = static_cast<signed char>(
           std::clamp(static_cast<int>(std::floor((std::log(r) - log_min) / ring_width)), 0,
-                     kShapeContextDistanceBins - 1);
-      addSoft(ring, std::atan2(d.y(), d.x()) - reference, 1.0, &h);
-      total += 1.0;
+                     kShapeContextDistanceBins - 1));
+      // Reference direction: 1/d-weighted circular mean of the directions to the neighbours.
+      const Eigen::Vector2d w = d / (r * std::max(r, params.min_radius));
+      work_[i].resultant += w;
+      work_[k].resultant -= w;
+      work_[i].neighbours += 1.0;
+      work_[k].neighbours += 1.0;
     }
-    if (total > 0.0) h /= total;
+  }
+  // A perfectly balanced neighbourhood has no direction; its histogram is then (nearly)
+  // symmetric as well, so the arbitrary x axis costs little.
+  for (Point& q : work_) {
+    q.reference =
+        q.resultant.squaredNorm() > 1e-18 ? std::atan2(q.resultant.y(), q.resultant.x()) : 0.0;
+  }
+  pair = 0;
+  for (int i = 0; i < n; ++i) {
+    for (int k = i + 1; k < n; ++k, ++pair) {
+      const int ring = ring_[pair];
+      if (ring < 0) continue;
+      const Eigen::Vector2d d = points[k] - points[i];
+      addSoft(ring, std::atan2(d.y(), d.x()) - work_[i].reference, 1.0, &(*out)[i]);
+      addSoft(ring, std::atan2(-d.y(), -d.x()) - work_[k].reference, 1.0, &(*out)[k]);
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    if (work_[i].neighbours > 0.0) (*out)[i] /= work_[i].neighbours;
   }
 }
 
 double chiSquareDistance(const ShapeContext& a, const ShapeContext& b) { return chiSquare(a, b); }
 
-double shapeContextDistance(const ShapeContext& a, const ShapeContext& b) {
-  // chi2 = 0.5 (sum a + sum b) - 2 sum_k a_k b_k / (a_k + b_k) (terms where either is zero
-  // vanish). b's rings are padded cyclically so the three shifts are contiguous, branch-free
-  // loops the compiler vectorises.
-  constexpr int kPad = kShapeContextAngleBins + 2;
-  double padded[kShapeContextDistanceBins * kPad];
-  for (int ring = 0; ring < kShapeContextDistanceBins; ++ring) {
-    const double* src = b.data() + ring * kShapeContextAngleBins;
-    double* dst = padded + ring * kPad;
-    dst[0] = src[kShapeContextAngleBins - 1];
-    for (int k = 0; k < kShapeContextAngleBins; ++k) dst[k + 1] = src[k];
-    dst[kPad - 1] = src[0];
+ShapeContextSupport shapeContextSupport(const ShapeContext& h) {
+  ShapeContextSupport s;
+  for (int k = 0; k < kShapeContextBins; ++k) {
+    if (h[k] != 0.0) s.bins |= std::uint64_t{1} << k;
   }
+  // Under shift s the term of bin k of `a` takes bin (k + s - 1) mod 12 of the same ring of `b`:
+  // the mask of `b` rotated within each ring of 12 bits.
+  const std::uint64_t m = s.bins;
+  s.shifted[0] =
+      ((m << 1) & ~kRingFirstBits) | ((m >> (kShapeContextAngleBins - 1)) & kRingFirstBits);
+  s.shifted[1] = m;
+  s.shifted[2] =
+      ((m >> 1) & ~kRingLastBits) | ((m << (kShapeContextAngleBins - 1)) & kRingLastBits);
+  s.sum = h.sum();
+  return s;
+}
+
+double shapeContextDistance(const ShapeContext& a, const ShapeContext& b) {
+  return shapeContextDistance(a, shapeContextSupport(a), b, shapeContextSupport(b));
+}
+
+double shapeContextDistance(const ShapeContext& a, const ShapeContextSupport& sa,
+                            const ShapeContext& b, const ShapeContextSupport& sb) {
+  // chi2 = 0.5 (sum a + sum b) - 2 sum_k a_k b_k / (a_k + b_k), where only the bins non-zero in
+  // both contribute; they are visited in ascending order, as the dense sum adds them.
   double both[3] = {0.0, 0.0, 0.0};
   for (int s = 0; s < 3; ++s) {
     double acc = 0.0;
-    for (int ring = 0; ring < kShapeContextDistanceBins; ++ring) {
-      const double* x = a.data() + ring * kShapeContextAngleBins;
-      const double* y = padded + ring * kPad + s;
-      for (int k = 0; k < kShapeContextAngleBins; ++k) {
-        acc += x[k] * y[k] / (x[k] + y[k] + 1e-300);
-      }
+    for (std::uint64_t bits = sa.bins & sb.shifted[s]; bits != 0; bits &= bits - 1) {
+      const int k = __builtin_ctzll(bits);
+      const double x = a[k];
+      const double y = b[kShiftedBin[s][k]];
+      acc += x * y / (x + y + 1e-300);
     }
     both[s] = acc;
   }
-  const double half_total = 0.5 * (a.sum() + b.sum());
+  const double half_total = 0.5 * (sa.sum + sb.sum);
   return std::max(0.0, half_total - 2.0 * std::max({both[0], both[1], both[2]}));
 }
 

@@ -89,17 +89,38 @@ class RrwscMatcher {
   void buildCandidates(const MatchInput& in, const RrwscParams& p);
   void buildAffinity(const MatchInput& in, const RrwscParams& p);
 
+  /// A landmark compared with an observation: log of its node affinity, the two parts of it, and
+  /// the affinity itself once shortlisted.
+  struct Ranked {
+    double log_node;
+    double log_position;
+    double distance;  ///< of the shape contexts
+    double node;
+    int landmark;
+  };
+
   RrwscParams p_;
+  ShapeContextBuilder contexts_;
   std::vector<ShapeContext> obs_sc_, map_sc_;
+  std::vector<ShapeContextSupport> obs_support_, map_support_;
   std::vector<RingHistogram> obs_rings_, map_rings_;
   std::vector<int> cand_begin_;    ///< candidates of observation i: [begin[i], begin[i+1])
   std::vector<double> cand_node_;  ///< node affinity per candidate
   std::vector<double> node_root_;  ///< its square root
-  std::vector<std::pair<double, int>> order_, best_;
+  std::vector<Ranked> best_;
+  std::vector<double> top_keys_;
   Eigen::MatrixXd obs_dist_, obs_var_, map_dist_, map_var_;
   std::vector<char> linked_;  ///< observation pairs that carry edges
   std::vector<std::pair<double, int>> near_;
   std::vector<int> used_, local_of_;  ///< landmarks among the candidates, and back
+  std::vector<int> cand_local_;       ///< per candidate: its landmark's index in used_
+  /// Edge between candidates c < d: exp(-e^2 / 2 sigma^2), before the node weighting.
+  struct Edge {
+    int c, d;
+    double affinity;
+  };
+  std::vector<Edge> edges_;
+  std::vector<int> fill_;  ///< next free entry per row while filling the graph
   MatchGraph graph_;
   ReweightedRandomWalks walk_;
   Eigen::VectorXd x_;

@@ -89,7 +89,7 @@ void SlamPipeline::reset() {
   odom_pose_at_time_.setZero();
   pending_steps_ = 0;
   lost_ = false;
-  unpaired_streak_ = nis_streak_ = 0;
+  unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   ++counters_.resets;
 }
 
@@ -131,7 +131,7 @@ void SlamPipeline::enterLost(bool pose_unknown) {
   lost_ = true;
   pose_unknown_ = pose_unknown;
   lost_scans_ = fix_count_ = 0;
-  unpaired_streak_ = nis_streak_ = 0;
+  unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   relocaliser_->setMap(mapLandmarks());  // frozen until found
 }
 
@@ -182,6 +182,36 @@ void SlamPipeline::checkLost(ScanReport* report) {
   // place the filter takes for new ground. The relocaliser tells them apart: a confident pose in
   // the established map that the filter's estimate does not cover is a kidnap.
   if (unpaired) probe(report);
+}
+
+bool SlamPipeline::checkRefused(ScanReport* report) {
+  if (config_.lost_rejected_scans <= 0) return false;
+  AssociationResult& a = report->association;
+  const int paired =
+      static_cast<int>(std::count(a.decision.begin(), a.decision.end(), Decision::kPaired));
+  // Rule 3: the associator recognised these landmarks without the pose, and the filter refused
+  // them, more than it paired. Seen at the first scan after a kidnap, while rule 1 waits for
+  // several scans (and chance pairings restart it).
+  if (a.gate_refused < std::max(config_.lost_min_observations, 1) || a.gate_refused <= paired) {
+    refused_streak_ = 0;
+    return false;
+  }
+  // Its unrecognised observations would start landmarks at the wrong pose: a second copy of the
+  // map that the filter would then track.
+  for (Decision& d : a.decision) {
+    if (d != Decision::kNew) continue;
+    d = Decision::kRejected;
+    ++counters_.suppressed_new;
+  }
+  if (++refused_streak_ < config_.lost_rejected_scans) return false;
+  report->lost_reason =
+      std::to_string(a.gate_refused) + " observations recognised but refused by the filter gate (" +
+      std::to_string(paired) + " paired) for " + std::to_string(refused_streak_) + " scans";
+  discardRecent(report);
+  ++counters_.lost_events;
+  report->became_lost = true;
+  enterLost();
+  return true;
 }
 
 int SlamPipeline::landmarksInView() const {
@@ -704,6 +734,11 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
   report.association_s = secondsSince(t0);
   report.invalid_decisions = sanitise(n, &report.association);
   if (report.invalid_decisions > 0) ++counters_.invalid_associations;
+  if (relocaliser_ && checkRefused(&report)) {
+    // The pose is wrong: nothing of this scan is applied; the relocaliser takes it at once.
+    relocaliseScan(&report);
+    return report;
+  }
   applyAssociation(&report);
   if (relocaliser_) checkLost(&report);
   return report;

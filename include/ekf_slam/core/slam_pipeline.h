@@ -109,6 +109,13 @@ struct PipelineConfig {
   /// Lost rule 2: this many consecutive scans whose batch NIS exceeds chi2(2k,
   /// lost_nis_probability) (k paired observations). 0 disables the rule.
   int lost_nis_scans = 5;
+  /// Lost rule 3: this many consecutive scans in which the associator recognised at least
+  /// lost_min_observations observations as map landmarks without the pose, yet the filter gate
+  /// refused them (AssociationResult::gate_refused), more of them than it paired: the pose is
+  /// wrong. The last scan is not applied (no update, no new landmark) but relocalised at once;
+  /// the earlier ones create no landmark. Only associators that fill gate_refused (RRWSC) can
+  /// trigger it. 0 disables the rule.
+  int lost_rejected_scans = 1;
   /// Lost this many scans without a relocalisation: tracking resumes from the dead-reckoned
   /// estimate (the map unfreezes). 0: stay lost until found (localisation in a saved map).
   int lost_max_scans = 50;
@@ -219,6 +226,8 @@ struct PipelineCounters {
   /// Recent landmarks (lost_recent_scans) removed when the pipeline went lost (they may come
   /// from a pose now taken to be wrong).
   std::uint64_t discarded_landmarks = 0;
+  /// New landmarks not created because their scan met lost rule 3 (kidnapped scans).
+  std::uint64_t suppressed_new = 0;
   /// Localization mode: new landmarks and removals the associator asked for, not applied.
   std::uint64_t frozen_new = 0;
   std::uint64_t frozen_removals = 0;
@@ -360,6 +369,9 @@ class SlamPipeline {
   void relocaliseScan(ScanReport* report);
   /// The lost rules after a tracked scan.
   void checkLost(ScanReport* report);
+  /// Lost rule 3 on the association, before it is applied; true when it fired (the pipeline is
+  /// lost, the scan must not be applied).
+  bool checkRefused(ScanReport* report);
   /// Created fewer than lost_recent_scans scans ago (loaded landmarks never are).
   bool recent(LandmarkId id) const;
   /// Established (not recent) map landmarks in view of the sensor at the estimated pose.
@@ -425,6 +437,7 @@ class SlamPipeline {
   bool pose_unknown_ = false;
   int unpaired_streak_ = 0;
   int nis_streak_ = 0;
+  int refused_streak_ = 0;
   Chi2Table nis_chi2_;
 };
 

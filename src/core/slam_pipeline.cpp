@@ -198,20 +198,38 @@ bool SlamPipeline::checkRefused(ScanReport* report) {
   }
   // Its unrecognised observations would start landmarks at the wrong pose: a second copy of the
   // map that the filter would then track.
-  for (Decision& d : a.decision) {
-    if (d != Decision::kNew) continue;
-    d = Decision::kRejected;
-    ++counters_.suppressed_new;
+  const auto suppressNew = [&a, this] {
+    for (Decision& d : a.decision) {
+      if (d != Decision::kNew) continue;
+      d = Decision::kRejected;
+      ++counters_.suppressed_new;
+    }
+  };
+  if (++refused_streak_ < config_.lost_rejected_scans) {
+    suppressNew();
+    return false;
   }
-  if (++refused_streak_ < config_.lost_rejected_scans) return false;
-  report->lost_reason =
+  // The relocaliser confirms on this scan (a probe): lost only when it puts the vehicle where
+  // the estimate does not cover. A graph mismatch, or a filter merely inaccurate, is no kidnap.
+  const std::string reason =
       std::to_string(a.gate_refused) + " observations recognised but refused by the filter gate (" +
       std::to_string(paired) + " paired) for " + std::to_string(refused_streak_) + " scans";
-  discardRecent(report);
-  ++counters_.lost_events;
-  report->became_lost = true;
-  enterLost();
-  return true;
+  probe(report);
+  if (report->became_lost) {
+    report->lost_reason = reason + "; " + report->lost_reason;
+    if (!report->relocalised) {
+      // The fix is held for confirmation: nothing of this scan is applied.
+      report->lost = true;
+      report->association.resize(report->observations.size());
+    }
+    return true;
+  }
+  if (usable(report->relocalisation, report->observations.size())) {
+    refused_streak_ = 0;  // the relocaliser agrees with the estimate: applied as associated
+  } else {
+    suppressNew();  // no answer: the doubt, and the streak, stay
+  }
+  return false;
 }
 
 int SlamPipeline::landmarksInView() const {
@@ -734,11 +752,8 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
   report.association_s = secondsSince(t0);
   report.invalid_decisions = sanitise(n, &report.association);
   if (report.invalid_decisions > 0) ++counters_.invalid_associations;
-  if (relocaliser_ && checkRefused(&report)) {
-    // The pose is wrong: nothing of this scan is applied; the relocaliser takes it at once.
-    relocaliseScan(&report);
-    return report;
-  }
+  // A kidnap found by rule 3: the associator's decisions are not applied, the relocaliser's are.
+  if (relocaliser_ && checkRefused(&report)) return report;
   applyAssociation(&report);
   if (relocaliser_) checkLost(&report);
   return report;

@@ -112,9 +112,10 @@ struct PipelineConfig {
   /// Lost rule 3: this many consecutive scans in which the associator recognised at least
   /// lost_min_observations observations as map landmarks without the pose, yet the filter gate
   /// refused them (AssociationResult::gate_refused), more of them than it paired: the pose is
-  /// wrong. The last scan is not applied (no update, no new landmark) but relocalised at once;
-  /// the earlier ones create no landmark. Only associators that fill gate_refused (RRWSC) can
-  /// trigger it. 0 disables the rule.
+  /// wrong. At the last scan the relocaliser is asked at once (a probe): a pose the estimate
+  /// does not cover is a kidnap, lost, and the scan is relocalised instead of applied; otherwise
+  /// it is applied. Scans of the streak without such an answer create no landmark. Only
+  /// associators that fill gate_refused (RRWSC) can trigger it. 0 disables the rule.
   int lost_rejected_scans = 1;
   /// Lost this many scans without a relocalisation: tracking resumes from the dead-reckoned
   /// estimate (the map unfreezes). 0: stay lost until found (localisation in a saved map).
@@ -369,8 +370,9 @@ class SlamPipeline {
   void relocaliseScan(ScanReport* report);
   /// The lost rules after a tracked scan.
   void checkLost(ScanReport* report);
-  /// Lost rule 3 on the association, before it is applied; true when it fired (the pipeline is
-  /// lost, the scan must not be applied).
+  /// Lost rule 3 on the association, before it is applied; true when it fired: the relocaliser
+  /// found a kidnap on this scan (probe), the pipeline is lost and the associator's decisions
+  /// must not be applied (the fix, when confirmed, has been).
   bool checkRefused(ScanReport* report);
   /// Created fewer than lost_recent_scans scans ago (loaded landmarks never are).
   bool recent(LandmarkId id) const;

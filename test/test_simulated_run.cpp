@@ -85,6 +85,28 @@ TEST(RunScorer, CountsScansAndSkipsEarlyNees) {
   EXPECT_DOUBLE_EQ(scorer.neesPerScan()[1], 1.0);
 }
 
+TEST(RunScorer, ErrorsBeforeAndAfterTheKidnap) {
+  // Scans at 5 Hz with a position error of 0.1 k m at scan k; the kidnap comes before scan 3.
+  RunScorer scorer;
+  const Eigen::Vector3d truth = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 20; ++k) {
+    if (k == 3) scorer.markKidnap();
+    ScanReport r;
+    r.stamp = 0.2 * k;
+    scorer.addScan(r, {}, Eigen::Vector3d(0.1 * k, 0, 0), Eigen::Matrix3d::Identity(), &truth);
+  }
+  const RunMetrics m = scorer.metrics(nullptr);
+  EXPECT_NEAR(m.error_before_kidnap_m, 0.2, 1e-12);  // scan 2
+  EXPECT_NEAR(m.error_after_kidnap_m, 1.3, 1e-12);   // scan 13, kRecoveryWindow after scan 3
+  EXPECT_EQ(m.recovery_scans, 0);                    // 0.3 m at the kidnap scan itself
+  // No kidnap: both NaN.
+  RunScorer quiet;
+  ScanReport r;
+  quiet.addScan(r, {}, truth, Eigen::Matrix3d::Identity(), &truth);
+  EXPECT_TRUE(std::isnan(quiet.metrics(nullptr).error_before_kidnap_m));
+  EXPECT_TRUE(std::isnan(quiet.metrics(nullptr).error_after_kidnap_m));
+}
+
 // Regression guard, generous on purpose: the tiny world (8 landmarks, a mover, clutter) through
 // the whole pipeline with DJNN.
 TEST(RunSimulation, TinyWorldWithDjnn) {

@@ -108,6 +108,7 @@ void PipelineConfig::validate() const {
   requireParameter(lost_field_of_view > 0.0 && lost_field_of_view <= 2.0 * M_PI,
                    "lost_field_of_view", "must lie in (0, 2 pi]", lost_field_of_view);
   count(lost_nis_scans, "lost_nis_scans");
+  count(lost_rejected_scans, "lost_rejected_scans");
   count(lost_max_scans, "lost_max_scans");
   count(relocalisation_confirmations, "relocalisation_confirmations");
   requireParameter(relocalisation_confirm_distance > 0.0, "relocalisation_confirm_distance",
@@ -207,6 +208,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_view_range = r.nonNegative("lost_view_range", c.lost_view_range);
   c.lost_field_of_view = r.inRange("lost_field_of_view", c.lost_field_of_view, 1e-6, 2.0 * M_PI);
   c.lost_nis_scans = r.integer("lost_nis_scans", c.lost_nis_scans, 0, 100000);
+  c.lost_rejected_scans = r.integer("lost_rejected_scans", c.lost_rejected_scans, 0, 100000);
   c.lost_max_scans = r.integer("lost_max_scans", c.lost_max_scans, 0, 100000);
   c.lost_nis_probability = r.probability("lost_nis_probability", c.lost_nis_probability);
   c.filter = r.text("filter", c.filter, {"ekf", "cekf"});

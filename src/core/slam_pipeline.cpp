@@ -89,7 +89,7 @@ void SlamPipeline::reset() {
   odom_pose_at_time_.setZero();
   pending_steps_ = 0;
   lost_ = false;
-  unpaired_streak_ = nis_streak_ = 0;
+  unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   ++counters_.resets;
 }
 
@@ -131,7 +131,7 @@ void SlamPipeline::enterLost(bool pose_unknown) {
   lost_ = true;
   pose_unknown_ = pose_unknown;
   lost_scans_ = fix_count_ = 0;
-  unpaired_streak_ = nis_streak_ = 0;
+  unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   relocaliser_->setMap(mapLandmarks());  // frozen until found
 }
 
@@ -190,6 +190,54 @@ void SlamPipeline::checkLost(ScanReport* report) {
   // place the filter takes for new ground. The relocaliser tells them apart: a confident pose in
   // the established map that the filter's estimate does not cover is a kidnap.
   if (unpaired) probe(report);
+}
+
+bool SlamPipeline::checkRefused(ScanReport* report) {
+  if (config_.lost_rejected_scans <= 0) return false;
+  AssociationResult& a = report->association;
+  const int paired =
+      static_cast<int>(std::count(a.decision.begin(), a.decision.end(), Decision::kPaired));
+  // Rule 3: the associator recognised these landmarks without the pose, and the filter refused
+  // them, more than it paired. Seen at the first scan after a kidnap, while rule 1 waits for
+  // several scans (and chance pairings restart it).
+  if (a.gate_refused < std::max(config_.lost_min_observations, 1) || a.gate_refused <= paired) {
+    refused_streak_ = 0;
+    return false;
+  }
+  // Its unrecognised observations would start landmarks at the wrong pose: a second copy of the
+  // map that the filter would then track.
+  const auto suppressNew = [&a, this] {
+    for (Decision& d : a.decision) {
+      if (d != Decision::kNew) continue;
+      d = Decision::kRejected;
+      ++counters_.suppressed_new;
+    }
+  };
+  if (++refused_streak_ < config_.lost_rejected_scans) {
+    suppressNew();
+    return false;
+  }
+  // The relocaliser confirms on this scan (a probe): lost only when it puts the vehicle where
+  // the estimate does not cover. A graph mismatch, or a filter merely inaccurate, is no kidnap.
+  const std::string reason =
+      std::to_string(a.gate_refused) + " observations recognised but refused by the filter gate (" +
+      std::to_string(paired) + " paired) for " + std::to_string(refused_streak_) + " scans";
+  probe(report);
+  if (report->became_lost) {
+    report->lost_reason = reason + "; " + report->lost_reason;
+    if (!report->relocalised) {
+      // The fix is held for confirmation: nothing of this scan is applied.
+      report->lost = true;
+      report->association.resize(report->observations.size());
+    }
+    return true;
+  }
+  if (usable(report->relocalisation, report->observations.size())) {
+    refused_streak_ = 0;  // the relocaliser agrees with the estimate: applied as associated
+  } else {
+    suppressNew();  // no answer: the doubt, and the streak, stay
+  }
+  return false;
 }
 
 int SlamPipeline::landmarksInView() const {
@@ -712,6 +760,8 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
   report.association_s = secondsSince(t0);
   report.invalid_decisions = sanitise(n, &report.association);
   if (report.invalid_decisions > 0) ++counters_.invalid_associations;
+  // A kidnap found by rule 3: the associator's decisions are not applied, the relocaliser's are.
+  if (relocaliser_ && checkRefused(&report)) return report;
   applyAssociation(&report);
   if (relocaliser_) checkLost(&report);
   return report;

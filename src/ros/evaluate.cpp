@@ -474,7 +474,8 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
            "odometry_correction,correction_1_name,correction_1,correction_1_sd,correction_1_true,"
            "correction_2_name,correction_2,correction_2_sd,correction_2_true,lost_events,"
            "relocalisations,wrong_relocalisations,recovery_scans,recovery_s,"
-           "pose_rmse_after_recovery_m,pose_ate_aligned_m,heading_rmse_aligned_rad,"
+           "pose_rmse_after_recovery_m,error_before_kidnap_m,error_after_kidnap_m,"
+           "pose_ate_aligned_m,heading_rmse_aligned_rad,"
            "map_rmse_aligned_m,landmarks_created,true_landmarks_findable,true_landmarks_found,"
            "landmark_precision,landmark_recall,pairing_coverage\n";
     for (const EvaluationRow& r : e.rows) {
@@ -509,6 +510,10 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
       if (std::isfinite(m.recovery_s)) csv << m.recovery_s;
       csv << ',';
       if (std::isfinite(m.pose_rmse_after_recovery_m)) csv << m.pose_rmse_after_recovery_m;
+      for (const double e : {m.error_before_kidnap_m, m.error_after_kidnap_m}) {
+        csv << ',';
+        if (std::isfinite(e)) csv << e;
+      }
       csv << ',' << m.pose_ate_aligned_m << ',' << m.heading_rmse_aligned_rad << ','
           << m.map_rmse_aligned_m << ',' << m.map.landmarks_created << ','
           << m.map.true_landmarks_findable << ',' << m.map.true_landmarks_found << ','

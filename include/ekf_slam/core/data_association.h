@@ -44,11 +44,17 @@ struct AssociationResult {
   std::vector<Decision> decision;    ///< one per observation
   std::vector<LandmarkId> landmark;  ///< one per observation; kNoLandmark unless kPaired
   std::vector<LandmarkId> remove;    ///< map landmarks to delete (e.g. DJNN's exit rule)
+  /// Observations the associator recognised as a map landmark without the pose (e.g. RRWSC's
+  /// graph matching) that the filter gate then refused: evidence that the pose, not the
+  /// observation, is wrong (SlamPipeline's lost rule 3, docs/relocalisation.md). Associators that
+  /// cannot tell leave 0.
+  int gate_refused = 0;
 
   void resize(std::size_t n) {
     decision.assign(n, Decision::kRejected);
     landmark.assign(n, kNoLandmark);
     remove.clear();
+    gate_refused = 0;
   }
   void pair(std::size_t obs, LandmarkId id) {
     decision[obs] = Decision::kPaired;

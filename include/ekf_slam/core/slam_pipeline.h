@@ -114,6 +114,14 @@ struct PipelineConfig {
   /// Lost rule 2: this many consecutive scans whose batch NIS exceeds chi2(2k,
   /// lost_nis_probability) (k paired observations). 0 disables the rule.
   int lost_nis_scans = 5;
+  /// Lost rule 3: this many consecutive scans in which the associator recognised at least
+  /// lost_min_observations observations as map landmarks without the pose, yet the filter gate
+  /// refused them (AssociationResult::gate_refused), more of them than it paired: the pose is
+  /// wrong. At the last scan the relocaliser is asked at once (a probe): a pose the estimate
+  /// does not cover is a kidnap, lost, and the scan is relocalised instead of applied; otherwise
+  /// it is applied. Scans of the streak without such an answer create no landmark. Only
+  /// associators that fill gate_refused (RRWSC) can trigger it. 0 disables the rule.
+  int lost_rejected_scans = 1;
   /// Lost this many scans without a relocalisation: tracking resumes from the dead-reckoned
   /// estimate (the map unfreezes). 0: stay lost until found (localisation in a saved map).
   int lost_max_scans = 50;
@@ -224,6 +232,8 @@ struct PipelineCounters {
   /// Recent landmarks (lost_recent_scans) removed when the pipeline went lost (they may come
   /// from a pose now taken to be wrong).
   std::uint64_t discarded_landmarks = 0;
+  /// New landmarks not created because their scan met lost rule 3 (kidnapped scans).
+  std::uint64_t suppressed_new = 0;
   /// Localization mode: new landmarks and removals the associator asked for, not applied.
   std::uint64_t frozen_new = 0;
   std::uint64_t frozen_removals = 0;
@@ -365,6 +375,10 @@ class SlamPipeline {
   void relocaliseScan(ScanReport* report);
   /// The lost rules after a tracked scan.
   void checkLost(ScanReport* report);
+  /// Lost rule 3 on the association, before it is applied; true when it fired: the relocaliser
+  /// found a kidnap on this scan (probe), the pipeline is lost and the associator's decisions
+  /// must not be applied (the fix, when confirmed, has been).
+  bool checkRefused(ScanReport* report);
   /// Created fewer than lost_recent_scans scans ago (loaded landmarks never are).
   bool recent(LandmarkId id) const;
   /// Established (not recent) map landmarks in view of the sensor at the estimated pose.
@@ -430,6 +444,7 @@ class SlamPipeline {
   bool pose_unknown_ = false;
   int unpaired_streak_ = 0;
   int nis_streak_ = 0;
+  int refused_streak_ = 0;
   Chi2Table nis_chi2_;
 };
 

@@ -78,6 +78,7 @@ AssociationResult RRWSC::associate(const AssociationContext& ctx) {
       // The graph says landmark j, the filter disagrees (e.g. the pose is lost): neither an
       // update nor a new landmark, which would duplicate j.
       ++stats_.incompatible;
+      ++result.gate_refused;
       result.decision[i] = Decision::kRejected;
     }
   }

@@ -183,6 +183,7 @@ void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>&
     kidnapped_ = true;
     kidnap_scan_ = scans_ - 1;
     kidnap_stamp_ = report.stamp;
+    error_before_kidnap_ = last_error_;
   }
   if (report.relocalised) {
     ++relocalisations_;
@@ -207,6 +208,10 @@ void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>&
       after_sum_ += distance * distance;
       ++after_n_;
     }
+    if (kidnapped_ && std::isnan(error_after_kidnap_) &&
+        report.stamp - kidnap_stamp_ >= kRecoveryWindow - 1e-6)
+      error_after_kidnap_ = distance;
+    last_error_ = distance;
     nees = pose_.add(estimate, cov, *true_pose);
     estimates_.push_back(estimate);
     truths_.push_back(*true_pose);
@@ -287,6 +292,8 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
   m.recovery_s = recovery_s_;
   m.pose_rmse_after_recovery_m =
       after_n_ > 0 ? std::sqrt(after_sum_ / static_cast<double>(after_n_)) : nan;
+  m.error_before_kidnap_m = error_before_kidnap_;
+  m.error_after_kidnap_m = error_after_kidnap_;
   return m;
 }
 

@@ -123,6 +123,15 @@ void PipelineConfig::validate() const {
   }
   positive(cekf_area_size, "cekf_area_size");
   nonNegative(cekf_margin, "cekf_margin");
+  if (jacobians != "standard" && jacobians != "first_estimate") {
+    throw ParameterError("parameter jacobians: must be one of {standard, first_estimate}, got '" +
+                         jacobians + "'");
+  }
+  // The compressed filter's private filter starts from the current estimates at every area
+  // switch: it would need the first estimates carried through it (not done).
+  if (jacobians == "first_estimate" && filter == "cekf") {
+    throw ParameterError("parameter jacobians: first_estimate needs filter ekf, not cekf");
+  }
 }
 
 PipelineConfig readPipelineConfig(const ParameterSource& params) {
@@ -212,6 +221,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_max_scans = r.integer("lost_max_scans", c.lost_max_scans, 0, 100000);
   c.lost_nis_probability = r.probability("lost_nis_probability", c.lost_nis_probability);
   c.filter = r.text("filter", c.filter, {"ekf", "cekf"});
+  c.jacobians = r.text("jacobians", c.jacobians, {"standard", "first_estimate"});
   c.cekf_area_size = r.positive("cekf_area_size", c.cekf_area_size);
   c.cekf_margin = r.nonNegative("cekf_margin", c.cekf_margin);
   c.relocalisation_confirmations =

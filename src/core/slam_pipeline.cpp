@@ -69,6 +69,8 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
     p.reach = config_.max_observation_range;
     cekf_ = std::make_unique<CompressedEkf>(&ekf_, p);
   }
+  ekf_.setLinearisation(config_.jacobians == "first_estimate" ? Linearisation::kFirstEstimate
+                                                              : Linearisation::kStandard);
   reset();
   counters_.resets = 0;
 }

@@ -50,6 +50,8 @@ void EkfSlam::reset(const Eigen::Vector3d& pose, const Eigen::Matrix3d& pose_cov
   P.block(3, 3, k, k) = correction.sigma.head(k).cwiseAbs2().asDiagonal();
   ids_.clear();
   index_of_.clear();
+  first_.clear();
+  prior_position_ = x_.head<2>();
   next_id_ = 0;
 }
 
@@ -68,6 +70,7 @@ Eigen::Matrix2d EkfSlam::correctionCovariance() const {
 void EkfSlam::replacePose(const Eigen::Vector3d& pose, const Eigen::Matrix3d& pose_cov) {
   x_.head<3>() = pose;
   x_(2) = wrapAngle(x_(2));
+  prior_position_ = x_.head<2>();
   auto P = this->P();
   P.topLeftCorner<3, 3>() = 0.5 * (pose_cov + pose_cov.transpose());
   const Eigen::Index n = dim_ - 3;
@@ -93,13 +96,28 @@ int EkfSlam::indexOf(LandmarkId id) const {
   return it == index_of_.end() ? -1 : it->second;
 }
 
+Eigen::Matrix3d EkfSlam::transition(const MotionStep& step) const {
+  Eigen::Matrix3d F = step.F;
+  if (linearisation_ == Linearisation::kFirstEstimate) {
+    // Huang et al.'s Phi: the displacement from the prior position, so that the product of the
+    // transitions since any time telescopes to J (p_now - p_then) with the same positions at
+    // which H was evaluated: the global rotation stays in the null space of the observability
+    // matrix. (A composed step's F is a product of such matrices: the same holds for it.)
+    const Eigen::Vector2d d = step.pose.head<2>() - prior_position_;
+    F(0, 2) = -d(1);
+    F(1, 2) = d(0);
+  }
+  return F;
+}
+
 bool EkfSlam::predict(const MotionStep& step) {
   if (!step.pose.allFinite() || !step.F.allFinite() || !step.Q.allFinite()) return false;
   if (step.corrections != k_) return false;
   if (k_ > 0) return predictAugmented(step);
-  const Eigen::Matrix3d& F = step.F;
+  const Eigen::Matrix3d F = transition(step);
   x_.head<3>() = step.pose;
   x_(2) = wrapAngle(x_(2));
+  prior_position_ = x_.head<2>();
 
   auto P = this->P();
   const Eigen::Matrix3d Pvv = P.topLeftCorner<3, 3>();
@@ -124,7 +142,7 @@ bool EkfSlam::predictAugmented(const MotionStep& step) {
                               3 + kMaxCorrectionStates>;
   const int a = 3 + k_;
   Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, 3 + kMaxCorrectionStates> B(3, a);
-  B.leftCols<3>() = step.F;
+  B.leftCols<3>() = transition(step);
   B.rightCols(k_) = step.Fc.leftCols(k_);
   Small A = Small::Identity(a, a);
   A.topRows<3>() = B;
@@ -140,6 +158,7 @@ bool EkfSlam::predictAugmented(const MotionStep& step) {
 
   x_.head<3>() = step.pose;
   x_(2) = wrapAngle(x_(2));
+  prior_position_ = x_.head<2>();
   const Eigen::Index n = dim_;
   for (Eigen::Index r = a; r < n; r += 2) {
     const Eigen::Matrix<double, 3, 2> c = B * P.block(0, r, a, 2);
@@ -164,13 +183,17 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   hv_.resize(m);
   hm_.resize(m);
   Eigen::Map<Eigen::VectorXd> v(workspace(&v_, d), d);
+  const bool first = linearisation_ == Linearisation::kFirstEstimate;
   for (int i = 0; i < m; ++i) {
     const Pairing& p = pairings[i];
     const int idx = indexOf(p.id);
     if (idx < 0 || !p.z.allFinite() || !p.R.allFinite()) return false;
     rows_[i] = stateRow(idx);
+    // The innovation always from the current estimate; only H's linearisation point moves.
     const Eigen::Vector2d z_hat =
-        model.predict(xv, x_.segment<2>(rows_[i]), p.kind, &hv_[i], &hm_[i]);
+        first ? model.predict(xv, x_.segment<2>(rows_[i]), p.kind)
+              : model.predict(xv, x_.segment<2>(rows_[i]), p.kind, &hv_[i], &hm_[i]);
+    if (first) model.predict(xv, first_[idx], p.kind, &hv_[i], &hm_[i]);
     if (!z_hat.allFinite() || !hv_[i].allFinite() || !hm_[i].allFinite()) return false;
     v.segment<2>(2 * i) = RangeBearingModel::innovation(p.z, z_hat, p.kind);
   }
@@ -255,6 +278,14 @@ LandmarkId EkfSlam::addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d&
   Eigen::Matrix2d Gz;
   const Eigen::Vector2d m = model.inverse(x_.head<3>(), z, kind, &Gv, &Gz);
   if (!m.allFinite() || !Gv.allFinite() || !Gz.allFinite()) return kNoLandmark;
+  if (linearisation_ == Linearisation::kFirstEstimate) {
+    // The same rule as the propagation's: the pose's heading column from the prior position
+    // (where this scan's H was evaluated), so that the rotation direction [I, J p_prior] of the
+    // pose maps onto [I, J m] of the new landmark, m its first estimate.
+    const Eigen::Vector2d d = m - prior_position_;
+    Gv(0, 2) = -d(1);
+    Gv(1, 2) = d(0);
+  }
 
   const Eigen::Index n = x_.size();
   const Eigen::Matrix3d Pvv = storedCovariance().topLeftCorner<3, 3>();
@@ -274,6 +305,7 @@ LandmarkId EkfSlam::addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d&
   const LandmarkId id = next_id_++;
   index_of_[id] = static_cast<int>(ids_.size());
   ids_.push_back(id);
+  first_.push_back(m);
   return id;
 }
 
@@ -292,6 +324,7 @@ LandmarkId EkfSlam::insertLandmark(const Eigen::Vector2d& position, const Eigen:
   P.bottomRightCorner<2, 2>() = 0.5 * (cov + cov.transpose());
   index_of_[id] = static_cast<int>(ids_.size());
   ids_.push_back(id);
+  first_.push_back(position);
   return id;
 }
 
@@ -323,6 +356,9 @@ void EkfSlam::setState(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covar
   ids_ = ids;
   index_of_ = std::move(index_of);
   next_id_ = next;
+  prior_position_ = x_.head<2>();
+  first_.resize(ids.size());
+  for (std::size_t k = 0; k < ids.size(); ++k) first_[k] = landmark(static_cast<int>(k));
 }
 
 bool EkfSlam::removeLandmark(LandmarkId id) {
@@ -349,6 +385,7 @@ bool EkfSlam::removeLandmark(LandmarkId id) {
   x_.conservativeResize(n - 2);
 
   ids_.erase(ids_.begin() + idx);
+  first_.erase(first_.begin() + idx);
   index_of_.erase(id);
   for (std::size_t k = idx; k < ids_.size(); ++k) index_of_[ids_[k]] = static_cast<int>(k);
   return true;

@@ -33,6 +33,16 @@ struct Pairing {
   MeasurementKind kind = MeasurementKind::kRangeBearing;
 };
 
+/// Where the filter evaluates its Jacobians (docs/consistency.md).
+enum class Linearisation : std::uint8_t {
+  kStandard = 0,  ///< at the current estimate
+  /// First-estimates Jacobian EKF (Huang, Mourikis, Roumeliotis 2008): each landmark's H at its
+  /// first estimate (its initial value) and the predicted pose; the propagation's heading column
+  /// from the propagated positions (new prior minus the previous prior), not from the updated one.
+  /// The Jacobians then keep the global rotation unobservable, as it truly is.
+  kFirstEstimate = 1,
+};
+
 /// Work done by EkfSlam::update, counted over the filter's life (kept over reset()).
 struct UpdateStats {
   std::uint64_t updates = 0;  ///< batch updates applied
@@ -107,12 +117,22 @@ class EkfSlam {
   }
   const UpdateStats& updateStats() const { return stats_; }
 
+  /// Jacobians at the current estimate (default) or at the first estimates. Kept over reset().
+  void setLinearisation(Linearisation l) { linearisation_ = l; }
+  Linearisation linearisation() const { return linearisation_; }
+  /// The landmark's first estimate: its value when added, inserted or set (setState).
+  const Eigen::Vector2d& firstEstimate(int index) const { return first_[index]; }
+  /// The position the pose was last predicted to (the prior: before any update since).
+  const Eigen::Vector2d& priorPosition() const { return prior_position_; }
+
   // --- filter steps -------------------------------------------------------------------------
   /// Prediction from a motion model step: pose <- step.pose,
   /// P_vv <- F P_vv F^T + Q, P_vm <- F P_vm. O(n): the map block is untouched. With k correction
   /// states the vehicle block is [pose, c] and its transition [F Fc; 0 I] (noise Q, Qvc, Qc).
   /// Returns false (and leaves the state unchanged) when the step is not finite or its number of
   /// correction states is not k.
+  /// F is [I a; 0 1] for every motion model, a = J (new position - old position), J the 90 deg
+  /// rotation; with Linearisation::kFirstEstimate the old position is the prior (priorPosition()).
   bool predict(const MotionStep& step);
 
   /// Batch update with every pairing of one scan: x += K v, P -= K S K^T (written to the lower
@@ -121,6 +141,7 @@ class EkfSlam {
   /// unchanged) when S is not positive definite, a pairing names an unknown id, anything is not
   /// finite or a correction state's variance would not stay positive. Correction states pushed past
   /// their bounds are clamped (counted). Optionally returns the NIS v^T S^-1 v.
+  /// H at the current pose and each landmark's estimate, or with kFirstEstimate its first one.
   bool update(const std::vector<Pairing>& pairings, const RangeBearingModel& model,
               double* nis = nullptr);
 
@@ -128,6 +149,7 @@ class EkfSlam {
   /// its Jacobians. O(n) arithmetic (plus, when the storage is full, one copy of P into storage
   /// half as large again). Returns its new id, or kNoLandmark (state unchanged) when z, R or the
   /// result is not finite.
+  /// With kFirstEstimate the pose Jacobian's heading column is taken from the prior position.
   LandmarkId addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d& R,
                          const RangeBearingModel& model,
                          MeasurementKind kind = MeasurementKind::kRangeBearing);
@@ -147,6 +169,7 @@ class EkfSlam {
   void setPose(const Eigen::Vector3d& pose) {
     x_.head<3>() = pose;
     x_(2) = wrapAngle(x_(2));
+    prior_position_ = x_.head<2>();
   }
 
   /// Replaces the pose and its covariance and zeroes the pose/map cross-covariance (the map is
@@ -163,6 +186,8 @@ class EkfSlam {
   friend class CompressedEkf;
 
   bool predictAugmented(const MotionStep& step);
+  /// step.F, or with kFirstEstimate its heading column from the prior position.
+  Eigen::Matrix3d transition(const MotionStep& step) const;
   MatrixView P() {
     return MatrixView(store_.data(), dim_, dim_, Eigen::OuterStride<>(store_.rows()));
   }
@@ -186,6 +211,12 @@ class EkfSlam {
   std::uint64_t clamps_ = 0, refusals_ = 0;
 
   UpdateStats stats_;
+
+  Linearisation linearisation_ = Linearisation::kStandard;
+  // First estimates in state order (kept in every mode: switching needs them), and the position
+  // of the last prediction (or reset / setPose / replacePose / setState).
+  std::vector<Eigen::Vector2d, Eigen::aligned_allocator<Eigen::Vector2d>> first_;
+  Eigen::Vector2d prior_position_ = Eigen::Vector2d::Zero();
 
   // Update workspaces, grown only when too small: no heap allocation per scan. Views over them:
   // P H^T then W = P H^T L^-T (N x d), S then its Cholesky factor (d x d), the innovation then

@@ -510,9 +510,9 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
       if (std::isfinite(m.recovery_s)) csv << m.recovery_s;
       csv << ',';
       if (std::isfinite(m.pose_rmse_after_recovery_m)) csv << m.pose_rmse_after_recovery_m;
-      for (const double e : {m.error_before_kidnap_m, m.error_after_kidnap_m}) {
+      for (const double error : {m.error_before_kidnap_m, m.error_after_kidnap_m}) {
         csv << ',';
-        if (std::isfinite(e)) csv << e;
+        if (std::isfinite(error)) csv << error;
       }
       csv << ',' << m.pose_ate_aligned_m << ',' << m.heading_rmse_aligned_rad << ','
           << m.map_rmse_aligned_m << ',' << m.map.landmarks_created << ','

@@ -156,11 +156,8 @@ void SlamPipeline::checkLost(ScanReport* report) {
   // as unpaired.
   const bool share_rule = config_.lost_min_paired_share > 0.0;
   if (share_rule) report->landmarks_expected = landmarksInView();
-  const bool paired_enough = share_rule
-                                 ? established > 0 && established >= config_.lost_min_paired_share *
-                                                                         report->landmarks_expected
-                                 : established > 0;
-  if (paired_enough) {
+  if (established > 0 &&
+      established >= config_.lost_min_paired_share * report->landmarks_expected) {
     unpaired_streak_ = 0;
   } else if (n >= config_.lost_min_observations) {
     ++unpaired_streak_;
@@ -178,8 +175,11 @@ void SlamPipeline::checkLost(ScanReport* report) {
   const bool rule2 = config_.lost_nis_scans > 0 && nis_streak_ >= config_.lost_nis_scans;
   if (rule1 || rule2) {
     report->lost_reason =
-        rule1 ? "no established landmark paired for " + std::to_string(unpaired_streak_) +
-                    " scans, " + std::to_string(report->landmarks_expected) + " in view"
+        rule1 ? (share_rule ? "under " + std::to_string(config_.lost_min_paired_share) +
+                                  " of the established landmarks in view paired for "
+                            : std::string("no established landmark paired for ")) +
+                    std::to_string(unpaired_streak_) + " scans, " +
+                    std::to_string(report->landmarks_expected) + " in view"
               : "NIS above chi2(2k, " + std::to_string(config_.lost_nis_probability) + ") for " +
                     std::to_string(nis_streak_) + " scans";
     discardRecent(report);

@@ -64,13 +64,7 @@ int main(int argc, char** argv) {
   double filter_s = 0.0, window_s = 0.0, window_max = 0.0, sim_time = 0.0;
   double filter_cpu = 0.0, window_cpu = 0.0;
   long scans = 0;
-  for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
-    if (e == sim::Simulation::Event::kOdometry) {
-      const sim::OdometrySample& od = simulation.odometry();
-      pipeline.addOdometry({od.stamp + sim::kStampOffset, od.twist, od.pose});
-      continue;
-    }
-    const sim::ObservationSet& set = simulation.observations();
+  feedSimulation(simulation, pipeline, [&](const sim::ObservationSet& set) {
     known->setTruth(set.truthIds());
     // The filter's whole work for the scan: prediction, association, update, global updates.
     const auto t0 = std::chrono::steady_clock::now();
@@ -94,8 +88,8 @@ int main(int argc, char** argv) {
       std::fflush(stdout);
       window_s = window_max = window_cpu = 0.0;
     }
-    if (max_scans > 0 && scans >= max_scans) break;
-  }
+    return max_scans <= 0 || scans < max_scans;
+  });
   const auto t_final = std::chrono::steady_clock::now();
   const double c_final = cpuSeconds();
   const std::size_t n = pipeline.ekf().numLandmarks();  // cekf: the last global update

@@ -63,13 +63,7 @@ Outcome run(const std::string& world_name, const std::string& filter, const std:
   pipeline.setSensorOffset(world.sensor.offset);
   Outcome out;
   sim::Simulation simulation(world, 1);
-  for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
-    if (e == sim::Simulation::Event::kOdometry) {
-      const sim::OdometrySample& o = simulation.odometry();
-      pipeline.addOdometry({o.stamp + sim::kStampOffset, o.twist, o.pose});
-      continue;
-    }
-    const sim::ObservationSet& set = simulation.observations();
+  feedSimulation(simulation, pipeline, [&](const sim::ObservationSet& set) {
     if (known != nullptr) known->setTruth(set.truthIds());
     pipeline.processObservations(set.stamp + sim::kStampOffset, set.toObservations());
     Scan s;
@@ -86,7 +80,8 @@ Outcome run(const std::string& world_name, const std::string& filter, const std:
     }
     if (static_cast<int>(out.scans.size()) == snapshot_scan) s.stored = ekf.covariance();
     out.scans.push_back(s);
-  }
+    return true;
+  });
   const EkfSlam& ekf = pipeline.ekf();  // cekf: the global update
   out.mean = ekf.mean();
   out.cov = ekf.covariance();

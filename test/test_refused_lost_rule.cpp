@@ -48,13 +48,7 @@ KidnapRun runKidnap(const std::string& world_name, int lost_rejected_scans) {
   KidnapRun run;
   sim::Simulation simulation(world, kSeed);
   double last_error = -1.0;
-  for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
-    if (e == sim::Simulation::Event::kOdometry) {
-      const sim::OdometrySample& o = simulation.odometry();
-      pipeline.addOdometry({o.stamp + sim::kStampOffset, o.twist, o.pose});
-      continue;
-    }
-    const sim::ObservationSet& set = simulation.observations();
+  feedSimulation(simulation, pipeline, [&](const sim::ObservationSet& set) {
     const ScanReport r =
         pipeline.processObservations(set.stamp + sim::kStampOffset, set.toObservations());
     const double error = (pipeline.pose().head<2>() - set.true_pose.head<2>()).norm();
@@ -64,15 +58,14 @@ KidnapRun runKidnap(const std::string& world_name, int lost_rejected_scans) {
       run.error_before = last_error;
     }
     last_error = error;
-    if (run.kidnap_scan < 0) continue;
+    if (run.kidnap_scan < 0) return true;
     if (r.became_lost && run.lost_scan < 0) run.lost_scan = scan;
     for (const Decision d : r.association.decision) run.new_after_kidnap += d == Decision::kNew;
     run.max_landmarks = std::max(run.max_landmarks, pipeline.activeEkf().numLandmarks());
-    if (scan == run.kidnap_scan + kScansAfter) {
-      run.error_after = error;
-      break;
-    }
-  }
+    if (scan < run.kidnap_scan + kScansAfter) return true;
+    run.error_after = error;
+    return false;
+  });
   run.lost_events = pipeline.counters().lost_events;
   run.suppressed_new = pipeline.counters().suppressed_new;
   return run;

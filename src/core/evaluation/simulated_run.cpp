@@ -319,6 +319,18 @@ std::vector<LandmarkId> truthByProximity(
   return truth;
 }
 
+void feedSimulation(sim::Simulation& simulation, SlamPipeline& pipeline,
+                    const std::function<bool(const sim::ObservationSet&)>& on_set) {
+  for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
+    if (e == sim::Simulation::Event::kOdometry) {
+      const sim::OdometrySample& o = simulation.odometry();
+      pipeline.addOdometry({o.stamp + sim::kStampOffset, o.twist, o.pose});
+    } else if (!on_set(simulation.observations())) {
+      return;
+    }
+  }
+}
+
 RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std::uint64_t seed,
                            KnownAssociation* known, std::vector<double>* nees_per_scan,
                            std::vector<Eigen::Vector2d>* errors_per_scan) {
@@ -340,15 +352,7 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
   RunScorer scorer;
   scorer.setTrueMap({beacons.begin(), beacons.end()});
   std::vector<LandmarkId> truth;
-  // Fed exactly as the offline runner feeds a simulated bag: odometry, then the set of the same
-  // stamp, with the bag's stamp offset.
-  for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
-    if (e == sim::Simulation::Event::kOdometry) {
-      const sim::OdometrySample& o = simulation.odometry();
-      pipeline->addOdometry({o.stamp + sim::kStampOffset, o.twist, o.pose});
-      continue;
-    }
-    const sim::ObservationSet& set = simulation.observations();
+  feedSimulation(simulation, *pipeline, [&](const sim::ObservationSet& set) {
     if (simulation.kidnapsApplied() > kidnaps) {
       kidnaps = simulation.kidnapsApplied();
       scorer.markKidnap();
@@ -368,7 +372,8 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
       for (const std::uint32_t i : report.input_index) truth.push_back(all[i]);
     }
     scorer.addScan(report, truth, pipeline->pose(), pipeline->poseCovariance(), &set.true_pose);
-  }
+    return true;
+  });
   if (nees_per_scan != nullptr) *nees_per_scan = scorer.neesPerScan();
   if (errors_per_scan != nullptr) *errors_per_scan = scorer.errorsPerScan();
   return scorer.metrics(pipeline);

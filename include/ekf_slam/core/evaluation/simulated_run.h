@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -195,6 +196,12 @@ class RunScorer {
   double after_sum_ = 0.0;
   std::uint64_t after_n_ = 0, relocalisations_ = 0, wrong_relocalisations_ = 0;
 };
+
+/// Feeds a simulation to a pipeline as the offline runner feeds a simulated bag: every odometry
+/// sample to addOdometry (with the bag's stamp offset sim::kStampOffset), every observation set
+/// to `on_set`, which processes it. Stops at the simulation's end or when on_set returns false.
+void feedSimulation(sim::Simulation& simulation, SlamPipeline& pipeline,
+                    const std::function<bool(const sim::ObservationSet&)>& on_set);
 
 /// runSimulation's loop on a pipeline the caller set up (associator, relocaliser, sensor offset,
 /// feature extractor): feeds it world + seed and scores it. A laser world's scans (sim::laserWorld)

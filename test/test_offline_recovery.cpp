@@ -14,6 +14,7 @@
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/ros/simulation_bag.h"
+#include "offline_test_options.h"
 #include "test_files.h"
 
 namespace ekf_slam {
@@ -32,13 +33,8 @@ struct SimulatedBag {
     summary = writeSimulationBag(o, log);
   }
   OfflineOptions options(const std::string& out) const {
-    OfflineOptions o;
-    o.bag_path = summary.bag_path;
-    o.params_path = summary.params_path;
-    o.out_dir = (dir.path() / out).string();
-    o.plot = false;
-    o.progress = false;
-    return o;
+    return test_files::quietOfflineOptions(summary.bag_path, summary.params_path,
+                                           (dir.path() / out).string());
   }
   TempDir dir;
   SimulationBagSummary summary;

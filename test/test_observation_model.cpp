@@ -1,9 +1,11 @@
 // Observation models (range-bearing and Cartesian): values, Jacobians (vs central differences),
 // inverse, wrap.
 #include <cmath>
+#include <random>
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 
 #include "ekf_slam/core/angles.h"
@@ -230,6 +232,112 @@ TEST(CartesianModel, SensorPointJacobianNumeric) {
   EXPECT_LT((J - J_num).norm(), kTol);
   RangeBearingModel::sensorPoint(z, kXY, &J);
   EXPECT_TRUE(J.isIdentity());
+}
+
+// Sample moments of f(x), x ~ N(mu, C), from a fixed-seed stream.
+template <int N, typename Fun>
+void sampleMoments(Fun f, const Eigen::Matrix<double, N, 1>& mu,
+                   const Eigen::Matrix<double, N, N>& C, int angle_row, Eigen::Vector2d* mean,
+                   Eigen::Matrix2d* cov) {
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> normal;
+  const Eigen::Matrix<double, N, N> L = C.llt().matrixL();
+  const Eigen::Vector2d f0 = f(mu);
+  constexpr int kSamples = 400000;
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d sum2 = Eigen::Matrix2d::Zero();
+  for (int i = 0; i < kSamples; ++i) {
+    Eigen::Matrix<double, N, 1> e;
+    for (int k = 0; k < N; ++k) e(k) = normal(rng);
+    Eigen::Vector2d y = f(mu + L * e) - f0;  // about f(mu): no wrap at +-pi
+    if (angle_row >= 0) y(angle_row) = wrapAngle(y(angle_row));
+    sum += y;
+    sum2 += y * y.transpose();
+  }
+  *mean = sum / kSamples;
+  *cov = sum2 / kSamples - *mean * mean->transpose();
+}
+
+// A landmark 200 m away known to 10 m across the line of sight (and 0.3 m along, correlated),
+// seen with a 0.1 m range: the second-order terms give the sampled range offset (sigma^2 / 2r =
+// 0.25 m) and spread (0.125 m^2, twelve times the noise's 0.01) that the first order misses.
+TEST(SecondOrderTerms, RangeBearingMatchSampledMoments) {
+  const RangeBearingModel model;
+  const Eigen::Vector3d xv(1.0, -2.0, 0.4);
+  const Eigen::Vector2d m(150.0, 130.0);
+  const Eigen::Vector2d d = m - xv.head<2>();
+  const Eigen::Vector2d u = d.normalized(), w(-u(1), u(0));
+  Eigen::Matrix2d C = 0.09 * u * u.transpose() + 100.0 * w * w.transpose() +
+                      0.6 * (u * w.transpose() + w * u.transpose());
+  Eigen::Vector2d mean;
+  Eigen::Matrix2d extra;
+  RangeBearingModel::rangeBearingSecondOrder(d, C, &mean, &extra);
+  Matrix23d Hv;
+  Eigen::Matrix2d Hm;
+  model.predict(xv, m, &Hv, &Hm);
+  const Eigen::Matrix2d first = Hm * C * Hm.transpose();
+
+  Eigen::Vector2d mean_s;
+  Eigen::Matrix2d cov_s;
+  sampleMoments<2>([&](const Eigen::Vector2d& q) { return model.predict(xv, q); }, m, C, 1, &mean_s,
+                   &cov_s);
+  EXPECT_NEAR(mean(0), 0.25, 0.01);
+  EXPECT_NEAR(mean_s(0), mean(0), 0.03 * mean(0));
+  // The bearing's offset (-cov_ab / r^2, 1.5e-5 rad) is below the sample mean's own error.
+  EXPECT_NEAR(mean_s(1), mean(1), 4.0 * std::sqrt(cov_s(1, 1) / 400000.0));
+  const Eigen::Matrix2d total = first + extra;
+  EXPECT_NEAR(cov_s(0, 0), total(0, 0), 0.03 * total(0, 0));
+  EXPECT_NEAR(cov_s(1, 1), total(1, 1), 0.03 * total(1, 1));
+  EXPECT_NEAR(cov_s(0, 1), total(0, 1), 0.05 * std::abs(total(0, 1)) + 1e-7);
+  // The first order alone is far off in range: the reason for the terms.
+  EXPECT_LT(first(0, 0), 0.5 * cov_s(0, 0));
+}
+
+// relativeCovariance is the first-order covariance of m - s, s the sensor position on the
+// vehicle (lever arm): against the Jacobian of m - s w.r.t. (pose, landmark).
+TEST(SecondOrderTerms, RelativeCovarianceWithLeverArm) {
+  const RangeBearingModel model(Eigen::Vector3d(0.8, -0.3, 0.2));
+  const Eigen::Vector3d xv(1.0, 2.0, 0.7);
+  Eigen::Matrix<double, 5, 5> A = Eigen::Matrix<double, 5, 5>::Random();
+  const Eigen::Matrix<double, 5, 5> P = A * A.transpose();
+  const auto rel = [&](const Eigen::Matrix<double, 5, 1>& x) {
+    return Eigen::Vector2d(x.tail<2>() - model.sensorPose(x.head<3>()).head<2>());
+  };
+  Eigen::Matrix<double, 5, 1> x0;
+  x0 << xv, 30.0, -4.0;
+  const Eigen::Matrix<double, 2, 5> J = numericJacobian<5>(rel, x0, -1);
+  const Eigen::Matrix2d expected = J * P * J.transpose();
+  const Eigen::Matrix2d C = model.relativeCovariance(xv, P.topLeftCorner<3, 3>(),
+                                                     P.block<2, 3>(3, 0), P.block<2, 2>(3, 3));
+  EXPECT_LT((C - expected).norm(), 1e-6 * expected.norm());
+}
+
+// A return at 250 m with 3 deg of bearing noise: the point's sampled mean lies 0.34 m inwards of
+// the first-order point (range sigma^2 / 2) and its spread along the beam is six times the
+// range noise; polarSecondOrder gives both.
+TEST(SecondOrderTerms, PolarMatchesSampledMoments) {
+  const double r = 250.0, dir = 1.1;
+  Eigen::Matrix2d C;
+  C << 0.01, 0.0005, 0.0005, std::pow(deg2rad(3.0), 2);
+  Eigen::Vector2d mean;
+  Eigen::Matrix2d extra;
+  RangeBearingModel::polarSecondOrder(r, dir, C, &mean, &extra);
+  const auto point = [](const Eigen::Vector2d& q) {
+    return Eigen::Vector2d(q(0) * std::cos(q(1)), q(0) * std::sin(q(1)));
+  };
+  Eigen::Matrix2d J;
+  J << std::cos(dir), -r * std::sin(dir), std::sin(dir), r * std::cos(dir);
+  const Eigen::Matrix2d total = J * C * J.transpose() + extra;
+  Eigen::Vector2d mean_s;
+  Eigen::Matrix2d cov_s;
+  sampleMoments<2>(point, Eigen::Vector2d(r, dir), C, -1, &mean_s, &cov_s);
+  const Eigen::Vector2d u(std::cos(dir), std::sin(dir)), w(-u(1), u(0));
+  EXPECT_NEAR(u.dot(mean_s), u.dot(mean), 0.03 * std::abs(u.dot(mean)));
+  EXPECT_NEAR(u.dot(mean), -0.5 * r * C(1, 1), 1e-12);
+  EXPECT_NEAR(w.dot(mean_s), w.dot(mean), 4.0 * std::sqrt(w.dot(cov_s * w) / 400000.0));
+  EXPECT_NEAR(u.dot(cov_s * u), u.dot(total * u), 0.05 * u.dot(total * u));
+  EXPECT_LT((cov_s - total).norm(), 0.03 * total.norm());
+  EXPECT_GT(u.dot(extra * u), 10.0 * C(0, 0));
 }
 
 }  // namespace

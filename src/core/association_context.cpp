@@ -54,6 +54,8 @@ const AssociationContext::Prediction& AssociationContext::prediction(int landmar
   Prediction& p = it->second;
   if (inserted) {
     p.z_hat = model_.predict(ekf_.pose(), ekf_.landmark(landmark), kind, &p.H_pose, &p.H_landmark);
+    Eigen::Vector2d mean;
+    if (ekf_.secondOrderTerms(landmark, model_, kind, &mean, &p.extra)) p.z_hat += mean;
   }
   return p;
 }
@@ -71,7 +73,7 @@ AssociationContext::Individual AssociationContext::individual(int obs, int landm
   const Eigen::Matrix2d cross = p.H_pose * P.block<3, 2>(0, r) * p.H_landmark.transpose();
   Individual ind;
   ind.S = HpPvv * p.H_pose.transpose() + cross + cross.transpose() +
-          p.H_landmark * P.block<2, 2>(r, r) * p.H_landmark.transpose() + o.R;
+          p.H_landmark * P.block<2, 2>(r, r) * p.H_landmark.transpose() + o.R + p.extra;
   ind.S(0, 1) = ind.S(1, 0) = 0.5 * (ind.S(0, 1) + ind.S(1, 0));
   ind.v = RangeBearingModel::innovation(o.z, p.z_hat, o.kind);
 
@@ -109,6 +111,8 @@ Eigen::Matrix2d AssociationContext::innovationCovariance(int obs_a, int lm_a, in
                                            ekf_.blockCovariance(ra, rb) * b.H_landmark.transpose();
   Eigen::Matrix2d C = a.H_pose * PvHb + a.H_landmark * PmHb;
   if (obs_a == obs_b) C += obs_[obs_a].R;
+  // The second-order terms are the landmark's prediction's: shared by two pairs on it.
+  if (lm_a == lm_b && obs_[obs_a].kind == obs_[obs_b].kind) C += a.extra;
   return C;
 }
 

@@ -222,6 +222,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_nis_probability = r.probability("lost_nis_probability", c.lost_nis_probability);
   c.filter = r.text("filter", c.filter, {"ekf", "cekf"});
   c.jacobians = r.text("jacobians", c.jacobians, {"standard", "first_estimate"});
+  c.second_order_observations = r.flag("second_order_observations", c.second_order_observations);
   c.cekf_area_size = r.positive("cekf_area_size", c.cekf_area_size);
   c.cekf_margin = r.nonNegative("cekf_margin", c.cekf_margin);
   c.relocalisation_confirmations =

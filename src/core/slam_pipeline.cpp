@@ -71,6 +71,7 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
   }
   ekf_.setLinearisation(config_.jacobians == "first_estimate" ? Linearisation::kFirstEstimate
                                                               : Linearisation::kStandard);
+  ekf_.setSecondOrderObservations(config_.second_order_observations);
   reset();
   counters_.resets = 0;
 }

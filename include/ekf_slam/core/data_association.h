@@ -78,6 +78,8 @@ class AssociationContext {
     Eigen::Vector2d z_hat;
     Matrix23d H_pose;
     Eigen::Matrix2d H_landmark;
+    /// Second-order terms' covariance, added to S (EkfSlam::secondOrderTerms; zero when off).
+    Eigen::Matrix2d extra = Eigen::Matrix2d::Zero();
   };
   /// Individual compatibility of observation i with landmark j.
   struct Individual {

@@ -142,6 +142,10 @@ struct PipelineConfig {
   /// Where the EKF's Jacobians are evaluated: "standard" (the current estimate) or
   /// "first_estimate", the FEJ-EKF (docs/consistency.md; filter ekf only).
   std::string jacobians = "standard";
+  /// Second-order terms of range-bearing observations (EKF2, docs/consistency.md): the mean and
+  /// spread that the first-order prediction misses for a landmark known poorly across the line of
+  /// sight, in the update, the associators' gates and the initialisation.
+  bool second_order_observations = false;
 
   /// Throws ParameterError naming the first invalid setting.
   void validate() const;

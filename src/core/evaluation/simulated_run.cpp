@@ -77,6 +77,13 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
     p["pose_delta_alpha_rot_per_rot"] =
         text(n.sigma_speed / v + std::tan(world.vehicle.max_steer) * n.sigma_steer);
   }
+  // Second-order observation terms where they matter (docs/consistency.md): a range-bearing
+  // sensor whose second-order range spread at its reach, r sigma_b^2 / sqrt(2), exceeds half its
+  // range noise (the rrw worlds: 425 m, 3 deg, 0.1 m), i.e. far landmarks known mostly across.
+  const double spread =
+      coveringRange(world) * std::pow(world.noise.sigma_bearing, 2) / std::sqrt(2.0);
+  if (!world.sensor.cartesian && spread > 0.5 * world.noise.sigma_range)
+    p["second_order_observations"] = "true";
   // A map this large is beyond the full EKF's per-scan budget (docs/cekf.md; the `city` world).
   if (world.landmarks.size() > kCompressedFilterLandmarks) p["filter"] = "cekf";
   // What odometry_correction: wheel_factors needs to match the simulated wheels.

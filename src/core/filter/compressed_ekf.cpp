@@ -83,6 +83,7 @@ void CompressedEkf::openPhase(const std::vector<LandmarkId>& extra) {
   local_.k_ = g.k_;
   local_.c_lower_ = g.c_lower_;
   local_.c_upper_ = g.c_upper_;
+  local_.setSecondOrderObservations(g_->secondOrderObservations());
   local_.setState(x, C, ids);
 
   // G = cov(A0, B0), read column by column of the lower triangle where B's row is below.

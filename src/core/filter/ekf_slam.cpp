@@ -168,6 +168,19 @@ bool EkfSlam::predictAugmented(const MotionStep& step) {
   return true;
 }
 
+bool EkfSlam::secondOrderTerms(int index, const RangeBearingModel& model, MeasurementKind kind,
+                               Eigen::Vector2d* mean, Eigen::Matrix2d* extra) const {
+  if (!second_order_ || kind != MeasurementKind::kRangeBearing) return false;
+  const ConstMatrixView P = storedCovariance();  // the blocks read here are current
+  const int r = stateRow(index);
+  const Eigen::Vector3d xv = x_.head<3>();
+  const Eigen::Matrix2d C = model.relativeCovariance(
+      xv, P.topLeftCorner<3, 3>(), P.block<2, 3>(r, 0), landmarkCovariance(index));
+  RangeBearingModel::rangeBearingSecondOrder(x_.segment<2>(r) - model.sensorPose(xv).head<2>(), C,
+                                             mean, extra);
+  return true;
+}
+
 bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingModel& model,
                      double* nis) {
   const int m = static_cast<int>(pairings.size());
@@ -182,6 +195,7 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   rows_.resize(m);
   hv_.resize(m);
   hm_.resize(m);
+  r_.resize(m);
   Eigen::Map<Eigen::VectorXd> v(workspace(&v_, d), d);
   const bool first = linearisation_ == Linearisation::kFirstEstimate;
   for (int i = 0; i < m; ++i) {
@@ -190,10 +204,17 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
     if (idx < 0 || !p.z.allFinite() || !p.R.allFinite()) return false;
     rows_[i] = stateRow(idx);
     // The innovation always from the current estimate; only H's linearisation point moves.
-    const Eigen::Vector2d z_hat =
+    Eigen::Vector2d z_hat =
         first ? model.predict(xv, x_.segment<2>(rows_[i]), p.kind)
               : model.predict(xv, x_.segment<2>(rows_[i]), p.kind, &hv_[i], &hm_[i]);
     if (first) model.predict(xv, first_[idx], p.kind, &hv_[i], &hm_[i]);
+    r_[i] = p.R;
+    Eigen::Vector2d mean;
+    Eigen::Matrix2d extra;
+    if (secondOrderTerms(idx, model, p.kind, &mean, &extra)) {
+      z_hat += mean;
+      r_[i] += extra;
+    }
     if (!z_hat.allFinite() || !hv_[i].allFinite() || !hm_[i].allFinite()) return false;
     v.segment<2>(2 * i) = RangeBearingModel::innovation(p.z, z_hat, p.kind);
   }
@@ -217,7 +238,7 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
       Eigen::Matrix2d b = hv_[i] * pht.block<3, 2>(0, 2 * j);
       b.noalias() += hm_[i] * pht.block<2, 2>(rows_[i], 2 * j);
       if (i == j) {
-        b += pairings[i].R;
+        b += r_[i];
         b = 0.5 * (b + b.transpose()).eval();
       }
       if (!b.allFinite()) return false;
@@ -276,7 +297,7 @@ LandmarkId EkfSlam::addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d&
   if (!z.allFinite() || !R.allFinite()) return kNoLandmark;
   Matrix23d Gv;
   Eigen::Matrix2d Gz;
-  const Eigen::Vector2d m = model.inverse(x_.head<3>(), z, kind, &Gv, &Gz);
+  Eigen::Vector2d m = model.inverse(x_.head<3>(), z, kind, &Gv, &Gz);
   if (!m.allFinite() || !Gv.allFinite() || !Gz.allFinite()) return kNoLandmark;
   if (linearisation_ == Linearisation::kFirstEstimate) {
     // The same rule as the propagation's: the pose's heading column from the prior position
@@ -290,6 +311,17 @@ LandmarkId EkfSlam::addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d&
   const Eigen::Index n = x_.size();
   const Eigen::Matrix3d Pvv = storedCovariance().topLeftCorner<3, 3>();
   Eigen::Matrix2d Pll = Gv * Pvv * Gv.transpose() + Gz * R * Gz.transpose();
+  if (second_order_ && kind == MeasurementKind::kRangeBearing) {
+    // The beam's world direction carries the heading's variance as well as the bearing's.
+    Eigen::Matrix2d C = R;
+    C(1, 1) += Pvv(2, 2);
+    Eigen::Vector2d mean;
+    Eigen::Matrix2d extra;
+    RangeBearingModel::polarSecondOrder(z(0), x_(2) + model.sensorOffset()(2) + z(1), C, &mean,
+                                        &extra);
+    m += mean;
+    Pll += extra;
+  }
   Pll = 0.5 * (Pll + Pll.transpose()).eval();
 
   x_.conservativeResize(n + 2);

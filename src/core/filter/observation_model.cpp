@@ -128,4 +128,47 @@ double RangeBearingModel::range(const Eigen::Vector2d& z, MeasurementKind kind) 
   return kind == MeasurementKind::kRangeBearing ? z(0) : z.norm();
 }
 
+Eigen::Matrix2d RangeBearingModel::relativeCovariance(const Eigen::Vector3d& xv,
+                                                      const Eigen::Matrix3d& Pvv,
+                                                      const Matrix23d& Pmv,
+                                                      const Eigen::Matrix2d& Pmm) const {
+  const SensorFrame f = sensorFrame(xv, offset_);
+  Matrix23d Js;  // d s / d xv: the sensor position moves with the pose and its lever arm
+  Js << 1.0, 0.0, -f.ly, 0.0, 1.0, f.lx;
+  const Eigen::Matrix2d cross = Pmv * Js.transpose();
+  Eigen::Matrix2d C = Pmm - cross - cross.transpose() + Js * Pvv * Js.transpose();
+  return 0.5 * (C + C.transpose());
+}
+
+void RangeBearingModel::rangeBearingSecondOrder(const Eigen::Vector2d& d, const Eigen::Matrix2d& C,
+                                                Eigen::Vector2d* mean, Eigen::Matrix2d* cov) {
+  // In the line-of-sight frame (a radial, b lateral): range = |(r + a, b)|, bearing =
+  // atan2(b, r + a) + const. Their Hessians at (0, 0): range [[0, 0], [0, 1/r]], bearing
+  // [[0, -1/r^2], [-1/r^2, 0]]; mean 1/2 tr(H C), covariance 1/2 tr(H_i C H_j C).
+  const double r = d.norm();
+  const Eigen::Vector2d u = d / r;
+  const Eigen::Vector2d w(-u(1), u(0));
+  const double caa = u.dot(C * u), cbb = w.dot(C * w), cab = u.dot(C * w);
+  const double r2 = r * r;
+  *mean << cbb / (2.0 * r), -cab / r2;
+  const double cov_rb = -cab * cbb / (r2 * r);
+  *cov << cbb * cbb / (2.0 * r2), cov_rb, cov_rb, (cab * cab + caa * cbb) / (r2 * r2);
+}
+
+void RangeBearingModel::polarSecondOrder(double range, double direction, const Eigen::Matrix2d& C,
+                                         Eigen::Vector2d* mean, Eigen::Matrix2d* cov) {
+  // p = range (cos, sin)(direction): along u the Hessian is [[0, 0], [0, -range]], along w
+  // [[0, 1], [1, 0]] (w.r.t. range, direction).
+  const Eigen::Vector2d u(std::cos(direction), std::sin(direction));
+  const Eigen::Vector2d w(-u(1), u(0));
+  const double srr = C(0, 0), spp = C(1, 1), srp = C(0, 1);
+  const double m_u = -0.5 * range * spp, m_w = srp;
+  const double c_uu = 0.5 * range * range * spp * spp;
+  const double c_ww = srr * spp + srp * srp;
+  const double c_uw = -range * srp * spp;
+  *mean = m_u * u + m_w * w;
+  *cov = c_uu * u * u.transpose() + c_ww * w * w.transpose() +
+         c_uw * (u * w.transpose() + w * u.transpose());
+}
+
 }  // namespace ekf_slam

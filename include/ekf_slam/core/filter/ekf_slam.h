@@ -120,6 +120,16 @@ class EkfSlam {
   /// Jacobians at the current estimate (default) or at the first estimates. Kept over reset().
   void setLinearisation(Linearisation l) { linearisation_ = l; }
   Linearisation linearisation() const { return linearisation_; }
+  /// Second-order terms of range-bearing observations (EKF2: RangeBearingModel::
+  /// rangeBearingSecondOrder in update(), polarSecondOrder in addLandmark()). Kept over reset().
+  void setSecondOrderObservations(bool on) { second_order_ = on; }
+  bool secondOrderObservations() const { return second_order_; }
+  /// With second-order observations on and a range-bearing z of landmark `index`: what to add to
+  /// its first-order prediction (`mean`) and to R (`extra`), from the current pose and landmark
+  /// covariance; false (nothing to add) otherwise. The associators' gates use it too, so that
+  /// they and the update agree on S.
+  bool secondOrderTerms(int index, const RangeBearingModel& model, MeasurementKind kind,
+                        Eigen::Vector2d* mean, Eigen::Matrix2d* extra) const;
   /// The landmark's first estimate: its value when added, inserted or set (setState).
   const Eigen::Vector2d& firstEstimate(int index) const { return first_[index]; }
   /// The position the pose was last predicted to (the prior: before any update since).
@@ -213,6 +223,7 @@ class EkfSlam {
   UpdateStats stats_;
 
   Linearisation linearisation_ = Linearisation::kStandard;
+  bool second_order_ = false;
   // First estimates in state order (kept in every mode: switching needs them), and the position
   // of the last prediction (or reset / setPose / replacePose / setState).
   std::vector<Eigen::Vector2d, Eigen::aligned_allocator<Eigen::Vector2d>> first_;
@@ -225,6 +236,7 @@ class EkfSlam {
   std::vector<int> rows_;
   std::vector<Matrix23d> hv_;
   std::vector<Eigen::Matrix2d, Eigen::aligned_allocator<Eigen::Matrix2d>> hm_;
+  std::vector<Eigen::Matrix2d, Eigen::aligned_allocator<Eigen::Matrix2d>> r_;  // R (+ EKF2)
 };
 
 }  // namespace ekf_slam

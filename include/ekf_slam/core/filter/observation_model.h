@@ -60,6 +60,27 @@ class RangeBearingModel {
   /// Distance from the sensor that z reports.
   static double range(const Eigen::Vector2d& z, MeasurementKind kind);
 
+  // --- second-order terms (EKF2, docs/consistency.md) -----------------------------------------
+  /// Covariance of the landmark's position relative to the sensor, d = m - s (world frame), from
+  /// the pose covariance Pvv (3x3), the landmark-pose cross-covariance Pmv (2x3) and the
+  /// landmark's Pmm (2x2), to first order.
+  Eigen::Matrix2d relativeCovariance(const Eigen::Vector3d& xv, const Eigen::Matrix3d& Pvv,
+                                     const Matrix23d& Pmv, const Eigen::Matrix2d& Pmm) const;
+  /// What the second-order terms of (range, bearing) = h(d) add to the first-order prediction
+  /// when d = m - s is uncertain with covariance C: `mean` to add to h(d) (E[h] - h(E[d])) and
+  /// `cov` to add to R (the variance of the quadratic terms). Why: a landmark far away and known
+  /// only across the line of sight (lateral sd sigma at range r) lies farther on average than
+  /// its mean (by sigma^2 / 2r) and with sigma^2 / (sqrt(2) r) of range spread the first-order
+  /// prediction does not see; with a precise range sensor that is several sd of its noise.
+  static void rangeBearingSecondOrder(const Eigen::Vector2d& d, const Eigen::Matrix2d& C,
+                                      Eigen::Vector2d* mean, Eigen::Matrix2d* cov);
+  /// The same for the inverse: a point at `range` along the world direction `direction`, with
+  /// covariance `C` of (range, direction): the second-order `mean` (world frame) to add to the
+  /// first-order point and `cov` to add to its first-order covariance (the banana of a far
+  /// return seen with bearing noise, mean pulled inwards by range sigma_phi^2 / 2).
+  static void polarSecondOrder(double range, double direction, const Eigen::Matrix2d& C,
+                               Eigen::Vector2d* mean, Eigen::Matrix2d* cov);
+
  private:
   Eigen::Vector3d offset_;
 };

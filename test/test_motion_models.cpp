@@ -204,6 +204,42 @@ TEST(TwistModel, ProcessNoise) {
   EXPECT_NEAR(Q(2, 2), 0.2 * 0.2 * sw * sw + 0.002, 1e-15);
 }
 
+// twist_steering_wheelbase: the twist noise of speed and steering-angle noise on a car-like
+// vehicle, (v, w) = (v, v tan(delta) / L): J diag(sigma_v^2, sigma_delta^2) J^T with the
+// steering noise sigma_w_per_v L; on a straight the independent (v, w) noise of the default.
+TEST(TwistModel, SteeringNoiseOnAWheelbase) {
+  TwistParams p;
+  p.sigma_v = 0.1;
+  p.sigma_v_per_v = 0.0;
+  p.sigma_w = 0.0;
+  p.sigma_w_per_v = 0.01;
+  const Eigen::Matrix2d straight = TwistModel(p).twistCovariance(Eigen::Vector2d(3.0, 0.0));
+  p.steering_wheelbase = 4.0;
+  const TwistModel model(p);
+  EXPECT_LT((model.twistCovariance(Eigen::Vector2d(3.0, 0.0)) - straight).norm(), 1e-18);
+  const double L = 4.0, v = 3.0, delta = 0.5, sd = p.sigma_w_per_v * L;
+  const auto twist = [&](const Eigen::Vector2d& a) {  // (v, delta) -> (v, w), as a 3-vector
+    return Eigen::Vector3d(a(0), a(0) * std::tan(a(1)) / L, 0.0);
+  };
+  const Eigen::Matrix<double, 3, 2> J = numericJacobian<2>(twist, Eigen::Vector2d(v, delta));
+  const Eigen::Matrix2d expected =
+      J.topRows<2>() * Eigen::Vector2d(0.01, sd * sd).asDiagonal() * J.topRows<2>().transpose();
+  const Eigen::Matrix2d got = model.twistCovariance(twist(Eigen::Vector2d(v, delta)).head<2>());
+  EXPECT_LT((got - expected).norm(), 1e-9 * expected.norm()) << got << "\n" << expected;
+  EXPECT_GT(got(0, 1), 0.0);  // a faster wheel turns faster at the same steering angle
+  // The process noise uses it; odometry turning on the spot stays finite (angle capped).
+  const Eigen::Matrix<double, 3, 2> G = [&] {
+    Eigen::Matrix3d F;
+    Eigen::Matrix<double, 3, 2> g;
+    model.predict(Eigen::Vector3d::Zero(), Eigen::Vector2d(v, 0.3), 0.1, &F, &g);
+    return g;
+  }();
+  const Eigen::Matrix3d Q = model.step(Eigen::Vector3d::Zero(), Eigen::Vector2d(v, 0.3), 0.1).Q;
+  EXPECT_LT((Q - G * model.twistCovariance(Eigen::Vector2d(v, 0.3)) * G.transpose()).norm(), 1e-18);
+  EXPECT_TRUE(model.twistCovariance(Eigen::Vector2d(1e-12, 1.0)).allFinite());
+  EXPECT_LT(model.twistCovariance(Eigen::Vector2d(1e-12, 1.0))(1, 1), 1.0);
+}
+
 // process_noise per_second: the pose covariance after one second of steps does not depend on the
 // step rate (per_message: it shrinks with the rate); the yaw variance is sigma_w^2 * 1 s.
 TEST(TwistModel, ProcessNoisePerSecondIsRateIndependent) {

@@ -54,6 +54,7 @@ void PipelineConfig::validate() const {
   nonNegative(twist.sigma_v_per_v, "twist_sigma_v_per_v");
   nonNegative(twist.sigma_w, "twist_sigma_w");
   nonNegative(twist.sigma_w_per_v, "twist_sigma_w_per_v");
+  nonNegative(twist.steering_wheelbase, "twist_steering_wheelbase");
   checkAdditive(twist.additive, "twist");
   nonNegative(pose_delta.alpha_trans_per_trans, "pose_delta_alpha_trans_per_trans");
   nonNegative(pose_delta.alpha_trans_per_rot, "pose_delta_alpha_trans_per_rot");
@@ -145,6 +146,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   t.sigma_v_per_v = r.nonNegative("twist_sigma_v_per_v", t.sigma_v_per_v);
   t.sigma_w = r.nonNegative("twist_sigma_w", t.sigma_w);
   t.sigma_w_per_v = r.nonNegative("twist_sigma_w_per_v", t.sigma_w_per_v);
+  t.steering_wheelbase = r.nonNegative("twist_steering_wheelbase", t.steering_wheelbase);
   t.per_second = r.text("process_noise", t.per_second ? "per_second" : "per_message",
                         {"per_message", "per_second"}) == "per_second";
   t.additive =

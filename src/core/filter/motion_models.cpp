@@ -1,6 +1,7 @@
 // Vehicle motion models: Ackermann (Victoria Park), twist (exact arc), pose delta.
 #include "ekf_slam/core/filter/motion_models.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "ekf_slam/core/angles.h"
@@ -115,16 +116,35 @@ MotionStep TwistModel::step(const Eigen::Vector3d& x, const Input& u, double dt,
   Eigen::Matrix<double, 3, 2> G;
   out.pose = predict(x, u, dt, &out.F, &G);
   if (G_out) *G_out = G;
-  const double av = std::abs(u(0));
-  const double sv = p_.sigma_v + p_.sigma_v_per_v * av;
-  const double sw = p_.sigma_w + p_.sigma_w_per_v * av;
-  Eigen::Vector2d n(sv * sv, sw * sw);
+  Eigen::Matrix2d n = twistCovariance(u);
   // White twist noise of density sigma^2 averaged over dt has variance sigma^2 / dt; G grows
   // with dt, so Q grows with dt (at dt = 0, G = 0: no noise rather than 0 * inf).
-  if (p_.per_second) n = dt > 0.0 ? Eigen::Vector2d(n / dt) : Eigen::Vector2d::Zero();
-  out.Q.noalias() = G * n.asDiagonal() * G.transpose();
+  if (p_.per_second) n = dt > 0.0 ? Eigen::Matrix2d(n / dt) : Eigen::Matrix2d::Zero();
+  out.Q.noalias() = G * n * G.transpose();
   out.Q += p_.additive * dt;
   return out;
+}
+
+namespace {
+constexpr double kMaxTanSteering = 10.0;
+}  // namespace
+
+Eigen::Matrix2d TwistModel::twistCovariance(const Input& u) const {
+  const double av = std::abs(u(0));
+  const double sv = p_.sigma_v + p_.sigma_v_per_v * av;
+  double sw = p_.sigma_w + p_.sigma_w_per_v * av;
+  Eigen::Matrix2d n = Eigen::Vector2d(sv * sv, sw * sw).asDiagonal();
+  const double L = p_.steering_wheelbase;
+  if (L > 0.0 && av > 0.0) {
+    // w = v tan(delta) / L: dw = (w / v) dv + v (1 + tan^2 delta) / L ddelta, with the steering
+    // noise sigma_w_per_v L; at w = 0 this is the diagonal above.
+    // Curvature tan(delta) / L, the steering angle capped at atan(10) = 84 deg: odometry that
+    // turns almost on the spot is no car's, and its w / v would blow the noise up.
+    const double k = std::clamp(u(1) / u(0), -kMaxTanSteering / L, kMaxTanSteering / L);
+    sw = p_.sigma_w + p_.sigma_w_per_v * av * (1.0 + L * L * k * k);
+    n << sv * sv, k * sv * sv, k * sv * sv, sw * sw + k * k * sv * sv;
+  }
+  return n;
 }
 
 // --- Pose delta --------------------------------------------------------------------------------

@@ -37,7 +37,8 @@ namespace sim {
 constexpr double kStampOffset = 1.0;
 
 /// Pipeline parameters (the names of docs/parameters.md, values as text) that match a world:
-/// initial pose = the world's start pose, twist-mode noise = twistNoiseFor(world), default R =
+/// initial pose = the world's start pose, twist-mode noise = twistNoiseFor(world) (a world with
+/// wheel factors, `aekf`: its exact speed and steering noise, no wheel-factor random walk), R =
 /// the world's observation noise, observation range covering the sensor (a large finite value
 /// for whole-map worlds), min range 0.
 std::map<std::string, std::string> pipelineParametersFor(const World& world);

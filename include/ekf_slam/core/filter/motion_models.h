@@ -74,6 +74,13 @@ struct TwistParams {
   /// spectral densities, [m/s sqrt(s)] and [rad/s sqrt(s)]: the step's twist noise is
   /// sigma^2 / dt, so the pose noise per second does not depend on the rate (docs/parameters.md).
   bool per_second = false;
+  /// > 0: the odometry is a car-like vehicle's (speed and steering angle on this wheelbase L
+  /// [m]), as in the simulator: the yaw-rate term sigma_w_per_v |v| is then a steering-angle
+  /// noise of std dev sigma_w_per_v L, which reaches the yaw rate as v (1 + tan^2 delta) / L
+  /// (tan delta = L w / v: it grows in turns), and the speed noise keeps the curvature (dw =
+  /// w / v dv, correlated with v); tan delta is capped at 10. 0: independent v and w noise (a
+  /// differential drive).
+  double steering_wheelbase = 0.0;
 };
 
 class TwistModel {
@@ -88,6 +95,9 @@ class TwistModel {
   /// predict() plus Q; optionally returns G = d pose / d u (for the correction states' chain).
   MotionStep step(const Eigen::Vector3d& x, const Input& u, double dt,
                   Eigen::Matrix<double, 3, 2>* G_out = nullptr) const;
+  /// Covariance of the twist noise of one message with twist u (per_second: of its density;
+  /// step() divides by dt): diagonal, or with steering_wheelbase the steering model's.
+  Eigen::Matrix2d twistCovariance(const Input& u) const;
 
  private:
   TwistParams p_;

@@ -143,9 +143,11 @@ good = sum(1 for r in rows if r.get("fixed") and not r["wrong"] and r["fix_scan"
 within10 = sum(1 for r in rows if r.get("fixed") and r["fix_scan"] <= 10)
 within2 = sum(1 for r in rows if r.get("fixed") and r["fix_error_m"] <= 2.0)
 known2 = sum(1 for r in rows if r.get("fixed") and r["known_fix_error_m"] <= 2.0)
+known_wrong = sum(1 for r in rows if r.get("wrong") and not r["known_fix_error_m"] <= 2.0)
 wrong = sum(1 for r in rows if r.get("wrong"))
 print(f"\n{n} windows: {good} within 2 m after at most 10 scans ({100.0 * good / max(n, 1):.0f} %), "
       f"{sum(1 for r in rows if r.get('fixed'))} fixed at all, {wrong} wrong fixes; "
       f"{within10} fixed within 10 scans, {within2} within 2 m of the full run at the fix, "
-      f"{known2} within 2 m of the known-start window")
+      f"{known2} within 2 m of the known-start window; "
+      f"{known_wrong} of the wrong fixes also more than 2 m from the known-start window")
 PY

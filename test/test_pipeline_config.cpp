@@ -95,7 +95,10 @@ TEST(PipelineConfig, ReadsTheRecoveryParameters) {
   p.set("lost_field_of_view", "6.2");
   p.set("lost_nis_scans", "0");
   p.set("lost_nis_probability", "0.99");
+  p.set("relocalisation_window_scans", "3");
   const PipelineConfig c = readPipelineConfig(p);
+  EXPECT_EQ(d.relocalisation_window_scans, 1);  // the current scan alone by default
+  EXPECT_EQ(c.relocalisation_window_scans, 3);
   EXPECT_EQ(c.relocaliser, "ekf_slam/FGCBB");
   EXPECT_EQ(c.lost_unpaired_scans, 4);
   EXPECT_EQ(c.lost_min_observations, 2);
@@ -108,7 +111,8 @@ TEST(PipelineConfig, ReadsTheRecoveryParameters) {
        std::vector<std::pair<std::string, std::string>>{{"lost_unpaired_scans", "-1"},
                                                         {"lost_field_of_view", "7"},
                                                         {"lost_nis_probability", "1"},
-                                                        {"lost_view_range", "-3"}}) {
+                                                        {"lost_view_range", "-3"},
+                                                        {"relocalisation_window_scans", "0"}}) {
     MapParameterSource bad;
     bad.set(name, value);
     try {

@@ -112,6 +112,8 @@ void PipelineConfig::validate() const {
   count(lost_rejected_scans, "lost_rejected_scans");
   count(lost_max_scans, "lost_max_scans");
   count(relocalisation_confirmations, "relocalisation_confirmations");
+  requireParameter(relocalisation_window_scans >= 1, "relocalisation_window_scans",
+                   "must be at least 1", relocalisation_window_scans);
   requireParameter(relocalisation_confirm_distance > 0.0, "relocalisation_confirm_distance",
                    "must be positive", relocalisation_confirm_distance);
   requireParameter(relocalisation_confirm_angle > 0.0 && relocalisation_confirm_angle <= M_PI,
@@ -229,6 +231,8 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.cekf_margin = r.nonNegative("cekf_margin", c.cekf_margin);
   c.relocalisation_confirmations =
       r.integer("relocalisation_confirmations", c.relocalisation_confirmations, 0, 1000);
+  c.relocalisation_window_scans =
+      r.integer("relocalisation_window_scans", c.relocalisation_window_scans, 1, 100);
   c.relocalisation_confirm_distance =
       r.positive("relocalisation_confirm_distance", c.relocalisation_confirm_distance);
   c.relocalisation_confirm_angle =

@@ -22,6 +22,7 @@
 
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/relocalisation/geometric_constraints.h"
 #include "ekf_slam/core/scan_geometry.h"
 
 namespace ekf_slam {
@@ -58,7 +59,8 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
       extractor_(std::make_shared<TreeFeatureExtractor>(config.extractor)),
       twist_model_(config.twist),
       pose_delta_model_(config.pose_delta),
-      correction_(config.correction) {
+      correction_(config.correction),
+      window_(config.relocalisation_window_scans) {
   config_.validate();
   if (!associator_) throw std::invalid_argument("SlamPipeline: no associator given");
   nis_chi2_ = Chi2Table(config_.lost_nis_probability, 64);
@@ -135,6 +137,7 @@ void SlamPipeline::enterLost(bool pose_unknown) {
   pose_unknown_ = pose_unknown;
   lost_scans_ = fix_count_ = 0;
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
+  window_.clear();                       // scans from before are at a pose now in doubt
   relocaliser_->setMap(mapLandmarks());  // frozen until found
 }
 
@@ -305,9 +308,13 @@ void SlamPipeline::probe(ScanReport* report) {
 RelocalisationResult SlamPipeline::callRelocaliser(ScanReport* report) {
   report->relocalisation_attempted = true;
   ++counters_.relocalisation_attempts;
+  window_pairings_.clear();
+  window_first_scan_ = report->scan;
   const auto t0 = std::chrono::steady_clock::now();
   report->relocalisation =
-      relocaliser_->relocalise(report->observations, model_.sensorOffset(), nullptr);
+      window_.size() > 1 && lost_
+          ? relocaliseWindow(report)
+          : relocaliser_->relocalise(report->observations, model_.sensorOffset(), nullptr);
   report->relocalisation_s = secondsSince(t0);
   const RelocalisationResult& r = report->relocalisation;
   if (r.status == RelocalisationStatus::kAmbiguous) {
@@ -315,6 +322,41 @@ RelocalisationResult SlamPipeline::callRelocaliser(ScanReport* report) {
   } else if (!usable(r, report->observations.size())) {
     ++counters_.relocalisations_not_found;
   }
+  return r;
+}
+
+RelocalisationResult SlamPipeline::relocaliseWindow(ScanReport* report) {
+  const Eigen::Vector3d now = pose();
+  window_.push(report->scan, now, report->observations);
+  const std::vector<CarriedScan> scans = window_.carried(now);
+  if (scans.empty())
+    return relocaliser_->relocalise(report->observations, model_.sensorOffset(), nullptr);
+  RelocalisationResult r = relocaliser_->relocaliseWindow(scans, model_.sensorOffset(), nullptr);
+  // The current scan's pairings are the report's (it is the last scan unless it saw nothing); the
+  // older scans' go into the update as observations carried into the current sensor frame, with
+  // the filter's own R grown by the odometry's covariance.
+  const std::size_t older =
+      r.landmark.size() - std::min(r.landmark.size(), report->observations.size());
+  const Eigen::Vector3d& offset = model_.sensorOffset();
+  const Eigen::Matrix2d Rs = rotation2d(offset.z());
+  std::size_t k = 0;
+  for (std::size_t s = 0; s < scans.size() && scans[s].scan != report->scan && k < older; ++s) {
+    for (const Observation& o : scans[s].observations) {
+      if (k >= older) break;
+      const LandmarkId id = r.landmark[k++];
+      if (id == kNoLandmark || r.status != RelocalisationStatus::kFound) continue;
+      const std::vector<ObservedPoint> p =
+          observedPoints({o}, offset, std::numeric_limits<double>::infinity());
+      if (p.empty()) continue;
+      Eigen::Vector2d x = p[0].p;
+      Eigen::Matrix2d C = p[0].cov;
+      carryPoint(scans[s].origin, scans[s].origin_covariance, &x, &C);
+      window_pairings_.push_back(Pairing{id, Rs.transpose() * (x - offset.head<2>()),
+                                         Rs.transpose() * C * Rs, MeasurementKind::kCartesian});
+    }
+  }
+  r.landmark.erase(r.landmark.begin(), r.landmark.begin() + static_cast<std::ptrdiff_t>(older));
+  window_first_scan_ = scans.front().scan;
   return r;
 }
 
@@ -327,7 +369,8 @@ void SlamPipeline::relocaliseScan(ScanReport* report) {
   report->lost = true;
   report->association.resize(report->observations.size());
   const RelocalisationResult r = callRelocaliser(report);
-  if (usable(r, report->observations.size()) && applyIfConfirmed(r, report)) return;
+  if (usable(r, report->observations.size()) && applyIfConfirmed(r, report, window_first_scan_))
+    return;
   // Not found for too long (the rule fired wrongly, or the vehicle left the map): tracking
   // resumes from the dead-reckoned estimate rather than freezing the map forever.
   if (!pose_unknown_ && config_.lost_max_scans > 0 && ++lost_scans_ >= config_.lost_max_scans) {
@@ -339,8 +382,9 @@ void SlamPipeline::relocaliseScan(ScanReport* report) {
   }
 }
 
-bool SlamPipeline::applyIfConfirmed(const RelocalisationResult& r, ScanReport* report) {
-  if (confirmedFix(r)) {
+bool SlamPipeline::applyIfConfirmed(const RelocalisationResult& r, ScanReport* report,
+                                    std::optional<std::uint32_t> first_scan) {
+  if (confirmedFix(r, first_scan.value_or(report->scan), report->scan)) {
     applyRelocalisation(r, report);
     return true;
   }
@@ -352,7 +396,8 @@ bool SlamPipeline::applyIfConfirmed(const RelocalisationResult& r, ScanReport* r
   return false;
 }
 
-bool SlamPipeline::confirmedFix(const RelocalisationResult& r) {
+bool SlamPipeline::confirmedFix(const RelocalisationResult& r, std::uint32_t first_scan,
+                                std::uint32_t last_scan) {
   const Eigen::Vector3d estimate = pose();
   if (fix_count_ > 0) {
     // The held fix moved by the odometry since: the estimate integrates it while lost.
@@ -361,12 +406,16 @@ bool SlamPipeline::confirmedFix(const RelocalisationResult& r) {
     const bool agrees =
         (moved.head<2>() - r.pose.head<2>()).norm() <= config_.relocalisation_confirm_distance &&
         std::abs(wrapAngle(moved.z() - r.pose.z())) <= config_.relocalisation_confirm_angle;
+    // A fix from scans the held one used repeats its data, and would repeat a chance alignment:
+    // it neither confirms the held fix nor replaces it.
+    if (agrees && first_scan <= fix_last_scan_) return false;
     fix_count_ = agrees ? fix_count_ + 1 : 1;
   } else {
     fix_count_ = 1;
   }
   fix_pose_ = r.pose;
   fix_estimate_ = estimate;
+  fix_last_scan_ = last_scan;
   if (fix_count_ <= config_.relocalisation_confirmations) return false;
   fix_count_ = 0;
   return true;
@@ -382,7 +431,10 @@ void SlamPipeline::applyRelocalisation(const RelocalisationResult& r, ScanReport
   // map as it should be (kRelocalisedPriorInflation). filter cekf: the whole state first.
   if (cekf_) cekf_->flush();
   ekf_.replacePose(r.pose, kRelocalisedPriorInflation * r.covariance);
+  carried_ = std::move(window_pairings_);  // a window's older pairings join the update
+  window_pairings_.clear();
   applyAssociation(report);
+  carried_.clear();
   if (!report->update_ok) {
     if (cekf_) cekf_->flush();
     ekf_.replacePose(r.pose, r.covariance);  // uncorrelated, still valid
@@ -417,6 +469,7 @@ Eigen::Matrix3d SlamPipeline::poseCovariance() const {
 
 void SlamPipeline::applyPendingMotion() const {
   if (pending_steps_ == 0) return;
+  if (lost_ && !window_.empty()) window_.addMotion(pending_.F, pending_.Q);
   // Steps are checked when composed, so this cannot fail.
   if (cekf_) {
     cekf_->predict(pending_);
@@ -791,6 +844,7 @@ void SlamPipeline::applyAssociation(ScanReport* report) {
     if (result.decision[i] == Decision::kPaired)
       pairings_.push_back(Pairing{result.landmark[i], obs[i].z, obs[i].R, obs[i].kind});
   }
+  pairings_.insert(pairings_.end(), carried_.begin(), carried_.end());
   report->nis_dof = 2 * static_cast<int>(pairings_.size());
   report->update_ok = cekf_ ? cekf_->update(pairings_, model_, &report->nis)
                             : ekf_.update(pairings_, model_, &report->nis);

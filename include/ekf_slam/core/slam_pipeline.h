@@ -47,6 +47,7 @@
 #include "ekf_slam/core/filter/odometry_correction.h"
 #include "ekf_slam/core/landmark_index.h"
 #include "ekf_slam/core/relocalisation/relocaliser.h"
+#include "ekf_slam/core/relocalisation/scan_window.h"
 
 namespace ekf_slam {
 
@@ -132,6 +133,11 @@ struct PipelineConfig {
   int relocalisation_confirmations = 0;
   double relocalisation_confirm_distance = 2.0;
   double relocalisation_confirm_angle = 0.2;
+  /// While lost, the relocaliser sees the observations of the last this many scans (with
+  /// observations, all since going lost), carried into the current frame by the odometry with its
+  /// covariance (docs/relocalisation.md, "A window of scans"); a fix confirms a held one only if
+  /// their windows share no scan. 1: the current scan alone.
+  int relocalisation_window_scans = 1;
   double lost_nis_probability = 0.999;
 
   /// The filter: "ekf" (every step on the whole state) or "cekf", the compressed EKF
@@ -445,9 +451,22 @@ class SlamPipeline {
   Eigen::Vector3d fix_pose_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d fix_estimate_ = Eigen::Vector3d::Zero();
   int fix_count_ = 0;
-  bool confirmedFix(const RelocalisationResult& r);
+  std::uint32_t fix_last_scan_ = 0;  // the newest scan the held fix used
+  bool confirmedFix(const RelocalisationResult& r, std::uint32_t first_scan,
+                    std::uint32_t last_scan);
   // Applies a found fix once confirmed (true); else holds it, counted, and says so in the report.
-  bool applyIfConfirmed(const RelocalisationResult& r, ScanReport* report);
+  // first_scan: the oldest scan the fix used (its window), by default the report's.
+  bool applyIfConfirmed(const RelocalisationResult& r, ScanReport* report,
+                        std::optional<std::uint32_t> first_scan = std::nullopt);
+  // relocalisation_window_scans > 1: the scans since going lost (mutable: the odometry reaches it
+  // in applyPendingMotion); the carried observations the last window call paired, ready for the
+  // update, and the window's oldest scan.
+  mutable ScanWindow window_;
+  std::vector<Pairing> window_pairings_;
+  std::vector<Pairing> carried_;  // joined to the next update (applyRelocalisation's only)
+  std::uint32_t window_first_scan_ = 0;
+  /// One relocaliser call on the window (the current scan last); returns the current scan's part.
+  RelocalisationResult relocaliseWindow(ScanReport* report);
   bool pose_unknown_ = false;
   int unpaired_streak_ = 0;
   int nis_streak_ = 0;

@@ -11,6 +11,7 @@
 #include <Eigen/Cholesky>
 
 #include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/pose2d.h"
 
 namespace ekf_slam {
 
@@ -332,18 +333,48 @@ GeometricConstraintBB::Verified GeometricConstraintBB::verify(
       v.pairs = std::move(extended);
     }
   }
-  // Negative information: the map landmarks the sensor should see from this pose.
-  const Eigen::Matrix2d R = rotation2d(v.fit.pose.z());
-  const Eigen::Vector2d sensor = R * sensor_offset_.head<2>() + v.fit.pose.head<2>();
-  const double yaw = v.fit.pose.z() + sensor_offset_.z();
-  std::vector<int> near;
-  map_.query(sensor, view_range_, &near);
-  for (const int j : near) {
-    const Eigen::Vector2d d = map_.landmarks()[j].position - sensor;
-    v.expected +=
-        std::abs(wrapAngle(std::atan2(d.y(), d.x()) - yaw)) <= 0.5 * params_.field_of_view;
+  // Negative information: the map landmarks the sensor should see from this pose (from any scan's
+  // pose of a window, each counted once).
+  std::vector<int> near, in_view;
+  for (const Eigen::Vector3d& view : views_) {
+    const Eigen::Vector3d sensor = composePose(composePose(v.fit.pose, view), sensor_offset_);
+    near.clear();
+    map_.query(sensor.head<2>(), view_range_, &near);
+    for (const int j : near) {
+      const Eigen::Vector2d d = map_.landmarks()[j].position - sensor.head<2>();
+      if (std::abs(wrapAngle(std::atan2(d.y(), d.x()) - sensor.z())) <= 0.5 * params_.field_of_view)
+        in_view.push_back(j);
+    }
   }
+  std::sort(in_view.begin(), in_view.end());
+  v.expected = static_cast<int>(std::unique(in_view.begin(), in_view.end()) - in_view.begin());
   return v;
+}
+
+bool GeometricConstraintBB::begin(const Eigen::Vector3d& sensor_offset, const PosePrior* prior,
+                                  RelocalisationResult* result) {
+  nodes_ = 0;
+  budget_exhausted_ = too_many_ = false;
+  last_groups_.clear();
+  points_.clear();
+  views_.clear();
+  if (!sensor_offset.allFinite()) {
+    *result = notFound(*result, "sensor offset is not finite");
+  } else if (prior && !(prior->mean.allFinite() && prior->covariance.allFinite())) {
+    *result = notFound(*result, "pose prior is not finite");
+  } else if (map_.size() < 3) {
+    *result = notFound(*result, "the map has " + std::to_string(map_.size()) +
+                                    " usable landmarks (at least 3 needed)");
+  } else {
+    sensor_offset_ = sensor_offset;
+    return true;
+  }
+  return false;
+}
+
+double GeometricConstraintBB::maxRange() const {
+  return params_.max_observation_range > 0.0 ? params_.max_observation_range
+                                             : std::numeric_limits<double>::infinity();
 }
 
 RelocalisationResult GeometricConstraintBB::relocalise(const std::vector<Observation>& observations,
@@ -351,21 +382,48 @@ RelocalisationResult GeometricConstraintBB::relocalise(const std::vector<Observa
                                                        const PosePrior* prior) {
   RelocalisationResult result;
   result.landmark.assign(observations.size(), kNoLandmark);
-  nodes_ = 0;
-  budget_exhausted_ = too_many_ = false;
-  last_groups_.clear();
-  if (!sensor_offset.allFinite()) return notFound(result, "sensor offset is not finite");
-  if (prior && !(prior->mean.allFinite() && prior->covariance.allFinite()))
-    return notFound(result, "pose prior is not finite");
-  if (map_.size() < 3) {
-    return notFound(result, "the map has " + std::to_string(map_.size()) +
-                                " usable landmarks (at least 3 needed)");
+  if (!begin(sensor_offset, prior, &result)) return result;
+  points_ = observedPoints(withOwnNoise(observations), sensor_offset, maxRange());
+  views_.push_back(Eigen::Vector3d::Zero());
+  return solve(prior, std::move(result));
+}
+
+RelocalisationResult GeometricConstraintBB::relocaliseWindow(const std::vector<CarriedScan>& scans,
+                                                             const Eigen::Vector3d& sensor_offset,
+                                                             const PosePrior* prior) {
+  RelocalisationResult result;
+  std::vector<int> first(scans.size(), 0);  // index of each scan's first observation
+  int n = 0;
+  for (std::size_t s = 0; s < scans.size(); ++s) {
+    first[s] = n;
+    n += static_cast<int>(scans[s].observations.size());
   }
-  sensor_offset_ = sensor_offset;
-  const double max_range = params_.max_observation_range > 0.0
-                               ? params_.max_observation_range
-                               : std::numeric_limits<double>::infinity();
-  points_ = observedPoints(withOwnNoise(observations), sensor_offset, max_range);
+  result.landmark.assign(static_cast<std::size_t>(n), kNoLandmark);
+  if (!begin(sensor_offset, prior, &result)) return result;
+  // Newest first: a tree seen again by a newer scan keeps its newest sighting (a tree twice in
+  // the point set could be paired only once, and would lower the paired share).
+  for (std::size_t s = scans.size(); s-- > 0;) {
+    const CarriedScan& c = scans[s];
+    if (!c.origin.allFinite() || !c.origin_covariance.allFinite()) continue;
+    views_.push_back(c.origin);
+    const std::size_t newer = points_.size();
+    for (ObservedPoint p :
+         observedPoints(withOwnNoise(c.observations), sensor_offset, maxRange())) {
+      carryPoint(c.origin, c.origin_covariance, &p.p, &p.cov);
+      p.input += first[s];
+      bool again = false;
+      for (std::size_t k = 0; k < newer && !again; ++k) {
+        const Eigen::Vector2d d = p.p - points_[k].p;
+        again = d.dot((p.cov + points_[k].cov).ldlt().solve(d)) <= prior_gate_;
+      }
+      if (!again) points_.push_back(p);
+    }
+  }
+  return solve(prior, std::move(result));
+}
+
+RelocalisationResult GeometricConstraintBB::solve(const PosePrior* prior,
+                                                  RelocalisationResult result) {
   if (static_cast<int>(points_.size()) < params_.min_observations) {
     return notFound(result, std::to_string(points_.size()) + " usable observations (at least " +
                                 std::to_string(params_.min_observations) + " needed)");

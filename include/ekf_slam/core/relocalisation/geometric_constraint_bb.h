@@ -106,6 +106,12 @@ class GeometricConstraintBB : public Relocaliser {
   RelocalisationResult relocalise(const std::vector<Observation>& observations,
                                   const Eigen::Vector3d& sensor_offset,
                                   const PosePrior* prior) override;
+  /// Every scan's observations carried into the current base_link (older sightings of a tree a
+  /// newer scan saw, within the prior_probability gate, dropped); "in view" for the negative
+  /// information is from any of the scans' poses.
+  RelocalisationResult relocaliseWindow(const std::vector<CarriedScan>& scans,
+                                        const Eigen::Vector3d& sensor_offset,
+                                        const PosePrior* prior) override;
 
   const GeometricConstraintParams& params() const { return params_; }
   /// Groups of the last call (indices into its observations), for tests and the benchmark.
@@ -132,6 +138,12 @@ class GeometricConstraintBB : public Relocaliser {
     PoseFit fit;
   };
 
+  /// Resets the per-call state and checks the inputs (false: `result` says why).
+  bool begin(const Eigen::Vector3d& sensor_offset, const PosePrior* prior,
+             RelocalisationResult* result);
+  double maxRange() const;
+  /// Steps 2-5 on points_ and views_.
+  RelocalisationResult solve(const PosePrior* prior, RelocalisationResult result);
   void makeGroups();
   void candidatesFor(const PosePrior* prior);
   void searchGroup(const std::vector<int>& group);
@@ -162,6 +174,7 @@ class GeometricConstraintBB : public Relocaliser {
   // Per call.
   std::vector<ObservedPoint> points_;
   Eigen::Vector3d sensor_offset_ = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> views_;        // base_link of each scan in the current base_link
   double view_range_ = 0.0;                   // landmarks within it of the sensor are "in view"
   std::vector<std::vector<int>> candidates_;  // per point: map indices passing unary (+ prior)
   std::vector<std::vector<char>> allowed_;    // per point, per landmark: in candidates_ (prior)

@@ -18,6 +18,7 @@
 #include "ekf_slam/core/data_association.h"  // Observation
 #include "ekf_slam/core/filter/ekf_slam.h"   // LandmarkId
 #include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/relocalisation/scan_window.h"
 
 namespace ekf_slam {
 
@@ -75,6 +76,14 @@ class Relocaliser {
   virtual RelocalisationResult relocalise(const std::vector<Observation>& observations,
                                           const Eigen::Vector3d& sensor_offset,
                                           const PosePrior* prior) = 0;
+
+  /// The same from a window of scans (oldest first, the current one last), each carried into the
+  /// current base_link by odometry (CarriedScan). The answer's pose is the current base_link's;
+  /// `landmark` has one entry per observation of every scan, in that order. The default searches
+  /// the current scan alone (the older ones stay unpaired); FGCBB / GCBB use them all.
+  virtual RelocalisationResult relocaliseWindow(const std::vector<CarriedScan>& scans,
+                                                const Eigen::Vector3d& sensor_offset,
+                                                const PosePrior* prior);
 };
 
 }  // namespace ekf_slam

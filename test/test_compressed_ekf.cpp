@@ -38,6 +38,8 @@ struct Outcome {
   Eigen::MatrixXd cov;
   std::vector<LandmarkId> ids;
   CompressedEkfStats stats;
+  std::vector<CekfClosure> closures;  // the global updates' log
+  double reach = 0.0;                 // rule 1's radius around the sensor [m]
 };
 
 std::shared_ptr<DataAssociation> associator(const std::string& name, const sim::World& world) {
@@ -62,6 +64,8 @@ Outcome run(const std::string& world_name, const std::string& filter, const std:
   SlamPipeline pipeline(config, a);
   pipeline.setSensorOffset(world.sensor.offset);
   Outcome out;
+  out.reach = config.max_observation_range + config.cekf_margin;
+  if (CompressedEkf* c = pipeline.compressedEkf()) c->setClosureLog(&out.closures);
   sim::Simulation simulation(world, 1);
   feedSimulation(simulation, pipeline, [&](const sim::ObservationSet& set) {
     if (known != nullptr) known->setTruth(set.truthIds());
@@ -117,6 +121,28 @@ TEST(CompressedEkf, EqualsFullEkfWithTrueAssociations) {
   EXPECT_GT(cekf.stats.compressed_phases, 5u);
   EXPECT_GT(cekf.stats.global_updates, 5u);
   EXPECT_GT(cekf.stats.landmark_in_reach, 0u);
+}
+
+// The log of the global updates says why and where each happened (bench_cekf --closures).
+TEST(CompressedEkf, ClosureLogMatchesStats) {
+  const Outcome cekf = run("djnn_weak", "cekf", "truth", 10.0);
+  ASSERT_EQ(cekf.closures.size(), cekf.stats.global_updates);
+  std::map<CekfClosureReason, std::uint64_t> count;
+  for (const CekfClosure& c : cekf.closures) {
+    ++count[c.reason];
+    EXPECT_GT(c.opened_states, 3);
+    EXPECT_GE(c.states, static_cast<std::size_t>(c.active_states));
+    if (c.reason == CekfClosureReason::kLandmarkInReach) {
+      // Rule 1 fired on a landmark of B near the sensor (the sensor sits near the vehicle).
+      ASSERT_TRUE(c.trigger.allFinite());
+      EXPECT_LT((c.trigger - c.pose.head<2>()).norm(), cekf.reach + 5.0);
+    }
+  }
+  EXPECT_EQ(count[CekfClosureReason::kGrown], cekf.stats.grown);
+  EXPECT_EQ(count[CekfClosureReason::kLandmarkInReach], cekf.stats.landmark_in_reach);
+  EXPECT_EQ(count[CekfClosureReason::kPairingOutside], cekf.stats.pairing_outside);
+  EXPECT_EQ(count[CekfClosureReason::kFlush], cekf.stats.flushes);
+  EXPECT_LE(count[CekfClosureReason::kFlush], 1u);  // only the final ekf()
 }
 
 TEST(CompressedEkf, EqualsFullEkfWithDjnn) {

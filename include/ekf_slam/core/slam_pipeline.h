@@ -322,6 +322,7 @@ class SlamPipeline {
   }
   /// The compressed filter (filter cekf), else null.
   const CompressedEkf* compressedEkf() const { return cekf_.get(); }
+  CompressedEkf* compressedEkf() { return cekf_.get(); }
   /// Current pose estimate at time(), including odometry not yet applied to the EKF. O(1).
   Eigen::Vector3d pose() const { return pending_steps_ > 0 ? pending_.pose : ekf_.pose(); }
   /// Its covariance, F P_vv F^T + Q of the pending motion. O(1).

@@ -2,9 +2,11 @@
 // EKF"): time per scan against map size, the real-time factor, the global updates. The true
 // associations, so that both filters see the same pairings and only the filter is timed.
 //
-//   bench_cekf --world city --filter cekf [--area 50] [--margin 10] [--max-scans N]
+//   bench_cekf --world city --filter cekf [--area A] [--slack S] [--margin 10] [--max-scans N]
 //              [--every 1000] [--seed 1] [--start-at T [--prior-sigma 0.5]] [--closures FILE]
-// Prints one row per `every` scans (mean time per scan over those scans) and a summary.
+// Prints one row per `every` scans (mean time per scan over those scans) and a summary. --area:
+// cekf_area_size, --slack: cekf_area_slack, by default the world's (sim::pipelineParametersFor:
+// 150 m and 5 m for city).
 //
 // --start-at T: the filters start at drive time T [s] on a map that already holds every landmark
 // the vehicle observed before T (the true positions plus N(0, prior-sigma^2) noise, loaded as a
@@ -73,23 +75,17 @@ Eigen::Vector3d priorMap(ekf_slam::sim::Simulation& simulation, const ekf_slam::
 
 int main(int argc, char** argv) {
   using namespace ekf_slam;
-  std::map<std::string, std::string> o = {{"--world", "city"},
-                                          {"--filter", "cekf"},
-                                          {"--area", "50"},
-                                          {"--margin", "10"},
-                                          {"--max-scans", "0"},
-                                          {"--every", "1000"},
-                                          {"--seed", "1"},
-                                          {"--start-at", "0"},
-                                          {"--prior-sigma", "0.5"},
-                                          {"--closures", ""},
-                                          {"--prior-map", "/tmp/bench_cekf_prior.map"}};
+  std::map<std::string, std::string> o = {
+      {"--world", "city"}, {"--filter", "cekf"}, {"--area", ""},
+      {"--margin", "10"},  {"--max-scans", "0"}, {"--every", "1000"},
+      {"--seed", "1"},     {"--start-at", "0"},  {"--prior-sigma", "0.5"},
+      {"--closures", ""},  {"--slack", ""},      {"--prior-map", "/tmp/bench_cekf_prior.map"}};
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!o.count(argv[i])) {
       std::fprintf(stderr,
                    "unknown option %s (options: --world --filter --area --margin "
                    "--max-scans --every --seed --start-at --prior-sigma --prior-map "
-                   "--closures)\n",
+                   "--closures --slack)\n",
                    argv[i]);
       return 2;
     }
@@ -98,7 +94,12 @@ int main(int argc, char** argv) {
   const sim::World world = sim::makeWorld(o["--world"]);
   std::map<std::string, std::string> params = sim::pipelineParametersFor(world);
   params["filter"] = o["--filter"];
-  params["cekf_area_size"] = o["--area"];
+  if (!o["--area"].empty()) params["cekf_area_size"] = o["--area"];
+  if (!params.count("cekf_area_size")) params["cekf_area_size"] = "50";  // the default
+  o["--area"] = params["cekf_area_size"];
+  if (!o["--slack"].empty()) params["cekf_area_slack"] = o["--slack"];
+  if (!params.count("cekf_area_slack")) params["cekf_area_slack"] = "0";  // the default
+  o["--slack"] = params["cekf_area_slack"];
   params["cekf_margin"] = o["--margin"];
   const std::uint64_t seed = std::strtoull(o["--seed"].c_str(), nullptr, 10);
   sim::Simulation simulation(world, seed);
@@ -126,9 +127,9 @@ int main(int argc, char** argv) {
   const long max_scans = std::atol(o["--max-scans"].c_str());
   const long every = std::max(1L, std::atol(o["--every"].c_str()));
 
-  std::printf("# world %s, filter %s, area %s m, margin %s m, %zu true landmarks\n",
+  std::printf("# world %s, filter %s, area %s m, margin %s m, slack %s m, %zu true landmarks\n",
               world.name.c_str(), o["--filter"].c_str(), o["--area"].c_str(), o["--margin"].c_str(),
-              world.landmarks.size());
+              o["--slack"].c_str(), world.landmarks.size());
   if (start_at > 0.0)
     std::printf("# started at %.1f s on a prior map of %zu landmarks (sigma %s m)\n", start_at,
                 prior_landmarks, o["--prior-sigma"].c_str());
@@ -137,6 +138,7 @@ int main(int argc, char** argv) {
   const auto t_start = std::chrono::steady_clock::now();
   double filter_s = 0.0, window_s = 0.0, window_max = 0.0, sim_time = 0.0;
   double filter_cpu = 0.0, window_cpu = 0.0;
+  double first_stamp = -1.0;  // the drive time timed starts one scan period before it
   long scans = 0;
   feedSimulation(simulation, pipeline, [&](const sim::ObservationSet& set) {
     known->setTruth(set.truthIds());
@@ -152,6 +154,7 @@ int main(int argc, char** argv) {
     window_s += dt;
     window_max = std::max(window_max, dt);
     sim_time = set.stamp;
+    if (first_stamp < 0.0) first_stamp = set.stamp;
     ++scans;
     while (closure_scan.size() < closures.size()) closure_scan.emplace_back(scans, sim_time);
     if (scans % every == 0) {
@@ -169,14 +172,17 @@ int main(int argc, char** argv) {
   const double c_final = cpuSeconds();
   const std::size_t n = pipeline.ekf().numLandmarks();  // cekf: the last global update
   const double final_s = seconds(t_final), final_cpu = cpuSeconds() - c_final;
-  std::printf("# scans %ld, simulated %.1f s, landmarks %zu\n", scans, sim_time, n);
+  // Drive time of the scans timed (from --start-at on): the real-time factors' denominator.
+  const double drive = std::max(1e-9, sim_time - first_stamp + world.observation_period);
+  std::printf("# scans %ld, simulated %.1f s (%.1f s timed), landmarks %zu\n", scans, sim_time,
+              drive, n);
   std::printf(
       "# filter wall %.2f s (%.3f ms per scan, real-time factor %.3f), CPU %.2f s (%.3f ms per "
       "scan, real-time factor %.3f); final global update %.3f s wall, %.3f s CPU; wall incl. "
       "simulation %.1f s\n",
-      filter_s, 1e3 * filter_s / std::max(1L, scans), filter_s / std::max(1e-9, sim_time),
-      filter_cpu, 1e3 * filter_cpu / std::max(1L, scans), filter_cpu / std::max(1e-9, sim_time),
-      final_s, final_cpu, seconds(t_start));
+      filter_s, 1e3 * filter_s / std::max(1L, scans), filter_s / drive, filter_cpu,
+      1e3 * filter_cpu / std::max(1L, scans), filter_cpu / drive, final_s, final_cpu,
+      seconds(t_start));
   if (const CompressedEkf* c = pipeline.compressedEkf()) {
     const CompressedEkfStats& s = c->stats();
     std::printf(

@@ -52,12 +52,13 @@ std::shared_ptr<DataAssociation> associator(const std::string& name, const sim::
 // The world fed to a pipeline as runSimulationOn feeds it, with a look at the filter after each
 // scan that never brings the compressed filter up to date (activeEkf()).
 Outcome run(const std::string& world_name, const std::string& filter, const std::string& assoc,
-            double area, int snapshot_scan = -1) {
+            double area, int snapshot_scan = -1, double slack = 0.0) {
   const sim::World world = sim::makeWorld(world_name);
   std::map<std::string, std::string> params = sim::pipelineParametersFor(world);
   params["filter"] = filter;
   params["cekf_area_size"] = std::to_string(area);
   params["cekf_margin"] = "3";
+  params["cekf_area_slack"] = std::to_string(slack);
   const PipelineConfig config = readPipelineConfig(MapParameterSource(params));
   std::shared_ptr<DataAssociation> a = associator(assoc, world);
   auto* known = dynamic_cast<KnownAssociation*>(a.get());
@@ -123,6 +124,17 @@ TEST(CompressedEkf, EqualsFullEkfWithTrueAssociations) {
   EXPECT_GT(cekf.stats.landmark_in_reach, 0u);
 }
 
+// cekf_area_slack widens A beyond rule 1's radius: the same result, fewer global updates for
+// landmarks coming within reach (the pose estimate moves against the map before they do).
+TEST(CompressedEkf, AreaSlackKeepsTheResultAndClosesLess) {
+  const Outcome full = run("djnn_weak", "ekf", "truth", 10.0);
+  const Outcome tight = run("djnn_weak", "cekf", "truth", 10.0);
+  const Outcome slack = run("djnn_weak", "cekf", "truth", 10.0, -1, 10.0);
+  expectSame(full, slack);
+  EXPECT_LT(slack.stats.landmark_in_reach, tight.stats.landmark_in_reach);
+  EXPECT_GT(slack.stats.max_active_states, tight.stats.max_active_states);
+}
+
 // The log of the global updates says why and where each happened (bench_cekf --closures).
 TEST(CompressedEkf, ClosureLogMatchesStats) {
   const Outcome cekf = run("djnn_weak", "cekf", "truth", 10.0);
@@ -175,8 +187,11 @@ TEST(CompressedEkf, ParametersValidated) {
                ParameterError);
   EXPECT_THROW(readPipelineConfig(MapParameterSource(Values{{"cekf_margin", "-1"}})),
                ParameterError);
+  EXPECT_THROW(readPipelineConfig(MapParameterSource(Values{{"cekf_area_slack", "-1"}})),
+               ParameterError);
   const PipelineConfig c = readPipelineConfig(MapParameterSource());
   EXPECT_EQ(c.filter, "ekf");
+  EXPECT_EQ(c.cekf_area_slack, 0.0);
 }
 
 }  // namespace

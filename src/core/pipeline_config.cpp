@@ -123,6 +123,7 @@ void PipelineConfig::validate() const {
   }
   positive(cekf_area_size, "cekf_area_size");
   nonNegative(cekf_margin, "cekf_margin");
+  nonNegative(cekf_area_slack, "cekf_area_slack");
   if (jacobians != "standard" && jacobians != "first_estimate") {
     throw ParameterError("parameter jacobians: must be one of {standard, first_estimate}, got '" +
                          jacobians + "'");
@@ -224,6 +225,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.jacobians = r.text("jacobians", c.jacobians, {"standard", "first_estimate"});
   c.cekf_area_size = r.positive("cekf_area_size", c.cekf_area_size);
   c.cekf_margin = r.nonNegative("cekf_margin", c.cekf_margin);
+  c.cekf_area_slack = r.nonNegative("cekf_area_slack", c.cekf_area_slack);
   c.relocalisation_confirmations =
       r.integer("relocalisation_confirmations", c.relocalisation_confirmations, 0, 1000);
   c.relocalisation_confirm_distance =

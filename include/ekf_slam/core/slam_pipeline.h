@@ -139,6 +139,7 @@ struct PipelineConfig {
   std::string filter = "ekf";
   double cekf_area_size = 50.0;  ///< CompressedEkfParams::area_size [m]
   double cekf_margin = 10.0;     ///< CompressedEkfParams::margin [m]
+  double cekf_area_slack = 0.0;  ///< CompressedEkfParams::slack [m]
   /// Where the EKF's Jacobians are evaluated: "standard" (the current estimate) or
   /// "first_estimate", the FEJ-EKF (docs/consistency.md; filter ekf only).
   std::string jacobians = "standard";

@@ -44,12 +44,12 @@ void CompressedEkf::openPhase(const std::vector<LandmarkId>& extra) {
   rows_dirty_ = true;
   vehicle_ = 3 + g.correctionDim();
   // The area is the stretch of area_size ahead of the vehicle (a sensor sees ahead, and a
-  // vehicle mostly keeps going): A is every landmark within reach + margin of it.
+  // vehicle mostly keeps going): A is every landmark within reach + margin + slack of it.
   opened_ = g.pose();
   centre_ = opened_.head<2>();
   area_updates_ = 0;
   const Eigen::Vector2d ahead(std::cos(g.pose()(2)), std::sin(g.pose()(2)));
-  const double h = p_.reach + p_.margin;
+  const double h = p_.reach + p_.margin + p_.slack;
   std::vector<int> a, b;  // landmark indices of A and B, global order
   for (std::size_t k = 0; k < g.numLandmarks(); ++k) {
     const int i = static_cast<int>(k);

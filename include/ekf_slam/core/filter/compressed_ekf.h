@@ -33,6 +33,10 @@ struct CompressedEkfParams {
   double area_size = 50.0;
   /// A landmark outside A within reach + margin of the sensor forces a global update [m].
   double margin = 10.0;
+  /// A also holds the landmarks up to this much farther from the stretch than reach + margin:
+  /// room for the pose estimate to move against the map (loop-closure corrections, the path
+  /// leaving the straight line) before a landmark outside A comes within the rule-1 radius [m].
+  double slack = 0.0;
   /// Farthest a landmark the associators read lies from the vehicle: observation range plus the
   /// sensor's offset [m].
   double reach = 30.0;

@@ -10,8 +10,8 @@
 #  3. city_drive: the drive itself from the start, CEKF, DRIVE_SCANS scans (0: the whole hour).
 #   scripts/bench_cekf.sh [vp] [city] [city_drive]       (default: vp city)
 # Env: RUNS (3), VP_ASSOCIATORS ("DJNN JCBB"), VP_AREAS ("25 50 100"), VP_BAG, CITY_START (2600),
-#      CITY_SCANS (1000), CITY_AREAS ("50 100 150"), EKF_SCANS (300), DRIVE_SCANS (20000),
-#      DRIVE_AREA (50), CITY_EVERY (100).
+#      CITY_SCANS (1000), CITY_AREAS ("50 100 150"), CITY_SLACK (0), EKF_SCANS (300),
+#      DRIVE_SCANS (20000), DRIVE_AREA (150), DRIVE_SLACK (5), CITY_EVERY (100).
 set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 RUNS=${RUNS:-3}
@@ -99,8 +99,9 @@ city() {
     --prior-map "$out/city_prior.map")
   for a in ${CITY_AREAS:-50 100 150}; do
     echo
-    echo "city from $start s, CEKF (area $a m, margin 10 m), ${CITY_SCANS:-1000} scans"
-    /usr/bin/time -v "$bench" "${common[@]}" --filter cekf --area "$a" --max-scans "${CITY_SCANS:-1000}" \
+    echo "city from $start s, CEKF (area $a m, slack ${CITY_SLACK:-0} m), ${CITY_SCANS:-1000} scans"
+    /usr/bin/time -v "$bench" "${common[@]}" --filter cekf --area "$a" --slack "${CITY_SLACK:-0}" \
+      --max-scans "${CITY_SCANS:-1000}" \
       --closures "$out/city_cekf_$a.csv" 2> "$out/city_cekf_$a.time" | tee "$out/city_cekf_$a.txt"
     grep "Maximum resident" "$out/city_cekf_$a.time"
     closures "$out/city_cekf_$a.csv"
@@ -115,8 +116,8 @@ city() {
 city_drive() {
   local bench="$EKF_SLAM_DEVEL/lib/ekf_slam/bench_cekf"
   echo
-  echo "city drive, CEKF (area ${DRIVE_AREA:-50} m, margin 10 m), ${DRIVE_SCANS:-20000} scans (0: all)"
-  /usr/bin/time -v "$bench" --world city --filter cekf --area "${DRIVE_AREA:-50}" \
+  echo "city drive, CEKF (area ${DRIVE_AREA:-150} m, slack ${DRIVE_SLACK:-5} m), ${DRIVE_SCANS:-20000} scans (0: all)"
+  /usr/bin/time -v "$bench" --world city --filter cekf --area "${DRIVE_AREA:-150}" --slack "${DRIVE_SLACK:-5}" \
     --max-scans "${DRIVE_SCANS:-20000}" --every 1000 --closures "$out/city_drive.csv" \
     2> "$out/city_drive.time" | tee "$out/city_drive.txt"
   grep "Maximum resident" "$out/city_drive.time"

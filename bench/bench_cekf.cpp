@@ -95,11 +95,7 @@ int main(int argc, char** argv) {
   std::map<std::string, std::string> params = sim::pipelineParametersFor(world);
   params["filter"] = o["--filter"];
   if (!o["--area"].empty()) params["cekf_area_size"] = o["--area"];
-  if (!params.count("cekf_area_size")) params["cekf_area_size"] = "50";  // the default
-  o["--area"] = params["cekf_area_size"];
   if (!o["--slack"].empty()) params["cekf_area_slack"] = o["--slack"];
-  if (!params.count("cekf_area_slack")) params["cekf_area_slack"] = "0";  // the default
-  o["--slack"] = params["cekf_area_slack"];
   params["cekf_margin"] = o["--margin"];
   const std::uint64_t seed = std::strtoull(o["--seed"].c_str(), nullptr, 10);
   sim::Simulation simulation(world, seed);
@@ -127,9 +123,9 @@ int main(int argc, char** argv) {
   const long max_scans = std::atol(o["--max-scans"].c_str());
   const long every = std::max(1L, std::atol(o["--every"].c_str()));
 
-  std::printf("# world %s, filter %s, area %s m, margin %s m, slack %s m, %zu true landmarks\n",
-              world.name.c_str(), o["--filter"].c_str(), o["--area"].c_str(), o["--margin"].c_str(),
-              o["--slack"].c_str(), world.landmarks.size());
+  std::printf("# world %s, filter %s, area %g m, margin %g m, slack %g m, %zu true landmarks\n",
+              world.name.c_str(), config.filter.c_str(), config.cekf_area_size, config.cekf_margin,
+              config.cekf_area_slack, world.landmarks.size());
   if (start_at > 0.0)
     std::printf("# started at %.1f s on a prior map of %zu landmarks (sigma %s m)\n", start_at,
                 prior_landmarks, o["--prior-sigma"].c_str());

@@ -1,14 +1,17 @@
 #!/usr/bin/env bash
 # Full EKF against the compressed EKF (filter cekf, docs/cekf.md), printed as the tables of
 # docs/benchmarks.md ("Compressed EKF") and docs/benchmarks_vp.md:
-#  1. Victoria Park, whole run, per associator and area size: wall and update time (best of RUNS),
-#     largest difference of the trajectory and of the map from the full EKF's;
-#  2. the `city` world (true associations, bench_cekf): time per scan against map size, the
-#     real-time factor and peak memory (/usr/bin/time -v), CEKF on CITY_SCANS scans (0: the whole
-#     hour) and the full EKF on its first EKF_SCANS scans (it cannot run the hour here).
-#   scripts/bench_cekf.sh [vp] [city]       (default: both)
-# Env: RUNS (3), VP_ASSOCIATORS ("DJNN JCBB"), VP_AREAS ("25 50 100"), VP_BAG, CITY_SCANS (0),
-#      EKF_SCANS (6000), CITY_AREA (50), CITY_EVERY (2000).
+#  1. vp: Victoria Park, whole run, per associator and area size: wall and update time (best of
+#     RUNS), largest difference of the trajectory and of the map from the full EKF's;
+#  2. city: the `city` world (true associations, bench_cekf) at N >= 20 000: both filters start at
+#     drive time CITY_START on a map holding every landmark observed before it (bench_cekf
+#     --start-at) and run CITY_SCANS scans (the full EKF EKF_SCANS), CEKF per area size in
+#     CITY_AREAS: CPU time per scan, peak memory (/usr/bin/time -v), the global updates and why;
+#  3. city_drive: the drive itself from the start, CEKF, DRIVE_SCANS scans (0: the whole hour).
+#   scripts/bench_cekf.sh [vp] [city] [city_drive]       (default: vp city)
+# Env: RUNS (3), VP_ASSOCIATORS ("DJNN JCBB"), VP_AREAS ("25 50 100"), VP_BAG, CITY_START (2600),
+#      CITY_SCANS (1000), CITY_AREAS ("50 100 150"), CITY_SLACK (0), EKF_SCANS (300),
+#      DRIVE_SCANS (20000), DRIVE_AREA (150), DRIVE_SLACK (5), CITY_EVERY (100).
 set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 RUNS=${RUNS:-3}
@@ -77,19 +80,48 @@ for a in assocs:
 PY
 }
 
+# Closures by reason, mean scans between them, mean A at the opening (bench_cekf --closures).
+closures() {
+  /usr/bin/python3 - "$1" <<'PY'
+import csv, sys
+from collections import Counter
+rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["reason"] != "flush"]
+gaps = [int(b["scan"]) - int(a["scan"]) for a, b in zip(rows, rows[1:])]
+n_a0 = [int(r["opened_states"]) for r in rows]
+print(f"global updates {len(rows)} {dict(Counter(r['reason'] for r in rows))}, "
+      f"every {sum(gaps) / max(1, len(gaps)):.0f} scans, A at the opening {sum(n_a0) / max(1, len(n_a0)):.0f} states")
+PY
+}
+
 city() {
-  local bench="$EKF_SLAM_DEVEL/lib/ekf_slam/bench_cekf"
-  local every=${CITY_EVERY:-2000}
+  local bench="$EKF_SLAM_DEVEL/lib/ekf_slam/bench_cekf" start=${CITY_START:-2600}
+  local common=(--world city --start-at "$start" --every "${CITY_EVERY:-100}"
+    --prior-map "$out/city_prior.map")
+  for a in ${CITY_AREAS:-50 100 150}; do
+    echo
+    echo "city from $start s, CEKF (area $a m, slack ${CITY_SLACK:-0} m), ${CITY_SCANS:-1000} scans"
+    /usr/bin/time -v "$bench" "${common[@]}" --filter cekf --area "$a" --slack "${CITY_SLACK:-0}" \
+      --max-scans "${CITY_SCANS:-1000}" \
+      --closures "$out/city_cekf_$a.csv" 2> "$out/city_cekf_$a.time" | tee "$out/city_cekf_$a.txt"
+    grep "Maximum resident" "$out/city_cekf_$a.time"
+    closures "$out/city_cekf_$a.csv"
+  done
   echo
-  echo "city, CEKF (area ${CITY_AREA:-50} m, margin 10 m), ${CITY_SCANS:-0} scans (0: all)"
-  /usr/bin/time -v "$bench" --world city --filter cekf --area "${CITY_AREA:-50}" \
-    --max-scans "${CITY_SCANS:-0}" --every "$every" 2> "$out/city_cekf.time" | tee "$out/city_cekf.txt"
-  grep "Maximum resident" "$out/city_cekf.time"
-  echo
-  echo "city, full EKF, first ${EKF_SCANS:-6000} scans"
-  /usr/bin/time -v "$bench" --world city --filter ekf --max-scans "${EKF_SCANS:-6000}" \
-    --every "$every" 2> "$out/city_ekf.time" | tee "$out/city_ekf.txt"
+  echo "city from $start s, full EKF, ${EKF_SCANS:-300} scans"
+  /usr/bin/time -v "$bench" "${common[@]}" --filter ekf --max-scans "${EKF_SCANS:-300}" \
+    2> "$out/city_ekf.time" | tee "$out/city_ekf.txt"
   grep "Maximum resident" "$out/city_ekf.time"
+}
+
+city_drive() {
+  local bench="$EKF_SLAM_DEVEL/lib/ekf_slam/bench_cekf"
+  echo
+  echo "city drive, CEKF (area ${DRIVE_AREA:-150} m, slack ${DRIVE_SLACK:-5} m), ${DRIVE_SCANS:-20000} scans (0: all)"
+  /usr/bin/time -v "$bench" --world city --filter cekf --area "${DRIVE_AREA:-150}" --slack "${DRIVE_SLACK:-5}" \
+    --max-scans "${DRIVE_SCANS:-20000}" --every 1000 --closures "$out/city_drive.csv" \
+    2> "$out/city_drive.time" | tee "$out/city_drive.txt"
+  grep "Maximum resident" "$out/city_drive.time"
+  closures "$out/city_drive.csv"
 }
 
 for p in "${parts[@]}"; do "$p"; done

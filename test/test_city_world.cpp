@@ -28,6 +28,8 @@ TEST(CityWorld, TenToTwentyThousandLandmarksAndAnHourOfDriving) {
   EXPECT_DOUBLE_EQ(w.sensor.max_range, 30.0);
   // The map is beyond the full EKF's per-scan budget: the pipeline parameters pick cekf.
   EXPECT_EQ(sim::pipelineParametersFor(w).at("filter"), "cekf");
+  EXPECT_EQ(std::stod(sim::pipelineParametersFor(w).at("cekf_area_size")), 150.0);
+  EXPECT_EQ(std::stod(sim::pipelineParametersFor(w).at("cekf_area_slack")), 5.0);
   EXPECT_EQ(sim::pipelineParametersFor(sim::makeWorld("djnn_weak")).count("filter"), 0u);
 }
 

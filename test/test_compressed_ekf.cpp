@@ -38,6 +38,8 @@ struct Outcome {
   Eigen::MatrixXd cov;
   std::vector<LandmarkId> ids;
   CompressedEkfStats stats;
+  std::vector<CekfClosure> closures;  // the global updates' log
+  double reach = 0.0;                 // rule 1's radius around the sensor [m]
 };
 
 std::shared_ptr<DataAssociation> associator(const std::string& name, const sim::World& world) {
@@ -50,18 +52,21 @@ std::shared_ptr<DataAssociation> associator(const std::string& name, const sim::
 // The world fed to a pipeline as runSimulationOn feeds it, with a look at the filter after each
 // scan that never brings the compressed filter up to date (activeEkf()).
 Outcome run(const std::string& world_name, const std::string& filter, const std::string& assoc,
-            double area, int snapshot_scan = -1) {
+            double area, int snapshot_scan = -1, double slack = 0.0) {
   const sim::World world = sim::makeWorld(world_name);
   std::map<std::string, std::string> params = sim::pipelineParametersFor(world);
   params["filter"] = filter;
   params["cekf_area_size"] = std::to_string(area);
   params["cekf_margin"] = "3";
+  params["cekf_area_slack"] = std::to_string(slack);
   const PipelineConfig config = readPipelineConfig(MapParameterSource(params));
   std::shared_ptr<DataAssociation> a = associator(assoc, world);
   auto* known = dynamic_cast<KnownAssociation*>(a.get());
   SlamPipeline pipeline(config, a);
   pipeline.setSensorOffset(world.sensor.offset);
   Outcome out;
+  out.reach = config.max_observation_range + config.cekf_margin;
+  if (CompressedEkf* c = pipeline.compressedEkf()) c->setClosureLog(&out.closures);
   sim::Simulation simulation(world, 1);
   feedSimulation(simulation, pipeline, [&](const sim::ObservationSet& set) {
     if (known != nullptr) known->setTruth(set.truthIds());
@@ -119,6 +124,39 @@ TEST(CompressedEkf, EqualsFullEkfWithTrueAssociations) {
   EXPECT_GT(cekf.stats.landmark_in_reach, 0u);
 }
 
+// cekf_area_slack widens A beyond rule 1's radius: the same result, fewer global updates for
+// landmarks coming within reach (the pose estimate moves against the map before they do).
+TEST(CompressedEkf, AreaSlackKeepsTheResultAndClosesLess) {
+  const Outcome full = run("djnn_weak", "ekf", "truth", 10.0);
+  const Outcome tight = run("djnn_weak", "cekf", "truth", 10.0);
+  const Outcome slack = run("djnn_weak", "cekf", "truth", 10.0, -1, 10.0);
+  expectSame(full, slack);
+  EXPECT_LT(slack.stats.landmark_in_reach, tight.stats.landmark_in_reach);
+  EXPECT_GT(slack.stats.max_active_states, tight.stats.max_active_states);
+}
+
+// The log of the global updates says why and where each happened (bench_cekf --closures).
+TEST(CompressedEkf, ClosureLogMatchesStats) {
+  const Outcome cekf = run("djnn_weak", "cekf", "truth", 10.0);
+  ASSERT_EQ(cekf.closures.size(), cekf.stats.global_updates);
+  std::map<CekfClosureReason, std::uint64_t> count;
+  for (const CekfClosure& c : cekf.closures) {
+    ++count[c.reason];
+    EXPECT_GT(c.opened_states, 3);
+    EXPECT_GE(c.states, static_cast<std::size_t>(c.active_states));
+    if (c.reason == CekfClosureReason::kLandmarkInReach) {
+      // Rule 1 fired on a landmark of B near the sensor (the sensor sits near the vehicle).
+      ASSERT_TRUE(c.trigger.allFinite());
+      EXPECT_LT((c.trigger - c.pose.head<2>()).norm(), cekf.reach + 5.0);
+    }
+  }
+  EXPECT_EQ(count[CekfClosureReason::kGrown], cekf.stats.grown);
+  EXPECT_EQ(count[CekfClosureReason::kLandmarkInReach], cekf.stats.landmark_in_reach);
+  EXPECT_EQ(count[CekfClosureReason::kPairingOutside], cekf.stats.pairing_outside);
+  EXPECT_EQ(count[CekfClosureReason::kFlush], cekf.stats.flushes);
+  EXPECT_LE(count[CekfClosureReason::kFlush], 1u);  // only the final ekf()
+}
+
 TEST(CompressedEkf, EqualsFullEkfWithDjnn) {
   // DJNN reads evidence, removes landmarks and counts the whole map: the same decisions.
   const Outcome full = run("djnn_strong", "ekf", "DJNN", 20.0);
@@ -149,8 +187,11 @@ TEST(CompressedEkf, ParametersValidated) {
                ParameterError);
   EXPECT_THROW(readPipelineConfig(MapParameterSource(Values{{"cekf_margin", "-1"}})),
                ParameterError);
+  EXPECT_THROW(readPipelineConfig(MapParameterSource(Values{{"cekf_area_slack", "-1"}})),
+               ParameterError);
   const PipelineConfig c = readPipelineConfig(MapParameterSource());
   EXPECT_EQ(c.filter, "ekf");
+  EXPECT_EQ(c.cekf_area_slack, 0.0);
 }
 
 }  // namespace

@@ -126,6 +126,7 @@ void PipelineConfig::validate() const {
   }
   positive(cekf_area_size, "cekf_area_size");
   nonNegative(cekf_margin, "cekf_margin");
+  nonNegative(cekf_area_slack, "cekf_area_slack");
   if (jacobians != "standard" && jacobians != "first_estimate") {
     throw ParameterError("parameter jacobians: must be one of {standard, first_estimate}, got '" +
                          jacobians + "'");
@@ -229,6 +230,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.second_order_observations = r.flag("second_order_observations", c.second_order_observations);
   c.cekf_area_size = r.positive("cekf_area_size", c.cekf_area_size);
   c.cekf_margin = r.nonNegative("cekf_margin", c.cekf_margin);
+  c.cekf_area_slack = r.nonNegative("cekf_area_slack", c.cekf_area_slack);
   c.relocalisation_confirmations =
       r.integer("relocalisation_confirmations", c.relocalisation_confirmations, 0, 1000);
   c.relocalisation_window_scans =

@@ -68,6 +68,7 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
     CompressedEkfParams p;
     p.area_size = config_.cekf_area_size;
     p.margin = config_.cekf_margin;
+    p.slack = config_.cekf_area_slack;
     p.reach = config_.max_observation_range;
     cekf_ = std::make_unique<CompressedEkf>(&ekf_, p);
   }

@@ -145,6 +145,7 @@ struct PipelineConfig {
   std::string filter = "ekf";
   double cekf_area_size = 50.0;  ///< CompressedEkfParams::area_size [m]
   double cekf_margin = 10.0;     ///< CompressedEkfParams::margin [m]
+  double cekf_area_slack = 0.0;  ///< CompressedEkfParams::slack [m]
   /// Where the EKF's Jacobians are evaluated: "standard" (the current estimate) or
   /// "first_estimate", the FEJ-EKF (docs/consistency.md; filter ekf only).
   std::string jacobians = "standard";
@@ -332,6 +333,7 @@ class SlamPipeline {
   }
   /// The compressed filter (filter cekf), else null.
   const CompressedEkf* compressedEkf() const { return cekf_.get(); }
+  CompressedEkf* compressedEkf() { return cekf_.get(); }
   /// Current pose estimate at time(), including odometry not yet applied to the EKF. O(1).
   Eigen::Vector3d pose() const { return pending_steps_ > 0 ? pending_.pose : ekf_.pose(); }
   /// Its covariance, F P_vv F^T + Q of the pending motion. O(1).

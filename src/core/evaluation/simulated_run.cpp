@@ -29,6 +29,11 @@ std::string text(double v) {
 // visible" means to range-limited code (the pipeline's filter, DJNN's local region).
 // Worlds with more landmarks than this run the compressed EKF (filter cekf).
 constexpr std::size_t kCompressedFilterLandmarks = 5000;
+// ... with areas this long [m] (cekf_area_size).
+constexpr double kLargeWorldAreaSize = 150.0;
+// ... and this much slack [m] (cekf_area_slack): crossing the mapped grid after half an hour of
+// exploring corrects the pose by metres per scan, which closed areas again within 1-4 scans.
+constexpr double kLargeWorldAreaSlack = 5.0;
 
 double coveringRange(const World& w) {
   if (std::isfinite(w.sensor.max_range)) return w.sensor.max_range;
@@ -85,7 +90,14 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
   if (!world.sensor.cartesian && spread > 0.5 * world.noise.sigma_range)
     p["second_order_observations"] = "true";
   // A map this large is beyond the full EKF's per-scan budget (docs/cekf.md; the `city` world).
-  if (world.landmarks.size() > kCompressedFilterLandmarks) p["filter"] = "cekf";
+  // Its areas a block long: at this size a global update (N^2 n_A) costs far more than the steps
+  // on A, and a 150 m area closes once per block of the city's grid where a 50 m one closes
+  // twice (docs/benchmarks.md, "city: both filters at N >= 20 000").
+  if (world.landmarks.size() > kCompressedFilterLandmarks) {
+    p["filter"] = "cekf";
+    p["cekf_area_size"] = text(kLargeWorldAreaSize);
+    p["cekf_area_slack"] = text(kLargeWorldAreaSlack);
+  }
   if (world.noise.odometry_wheel_factors != Eigen::Vector2d::Ones()) {
     // What odometry_correction: wheel_factors needs to match the simulated wheels: their track,
     // and no random walk (the world's factors are constant). This world's consistency is what

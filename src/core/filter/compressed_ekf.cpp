@@ -8,6 +8,20 @@
 
 namespace ekf_slam {
 
+const char* toString(CekfClosureReason reason) {
+  switch (reason) {
+    case CekfClosureReason::kGrown:
+      return "grown";
+    case CekfClosureReason::kLandmarkInReach:
+      return "landmark_in_reach";
+    case CekfClosureReason::kPairingOutside:
+      return "pairing_outside";
+    case CekfClosureReason::kFlush:
+      return "flush";
+  }
+  return "?";
+}
+
 CompressedEkf::CompressedEkf(EkfSlam* global, const CompressedEkfParams& params)
     : g_(global), p_(params) {}
 
@@ -30,10 +44,12 @@ void CompressedEkf::openPhase(const std::vector<LandmarkId>& extra) {
   rows_dirty_ = true;
   vehicle_ = 3 + g.correctionDim();
   // The area is the stretch of area_size ahead of the vehicle (a sensor sees ahead, and a
-  // vehicle mostly keeps going): A is every landmark within reach + margin of it.
-  centre_ = g.pose().head<2>();
+  // vehicle mostly keeps going): A is every landmark within reach + margin + slack of it.
+  opened_ = g.pose();
+  centre_ = opened_.head<2>();
+  area_updates_ = 0;
   const Eigen::Vector2d ahead(std::cos(g.pose()(2)), std::sin(g.pose()(2)));
-  const double h = p_.reach + p_.margin;
+  const double h = p_.reach + p_.margin + p_.slack;
   std::vector<int> a, b;  // landmark indices of A and B, global order
   for (std::size_t k = 0; k < g.numLandmarks(); ++k) {
     const int i = static_cast<int>(k);
@@ -145,14 +161,41 @@ void CompressedEkf::scatter(bool vehicle_only) {
   g.upper_stale_ = g.dim_ > vehicle_;
 }
 
-void CompressedEkf::closePhase() {
+void CompressedEkf::closePhase(CekfClosureReason reason, const Eigen::Vector2d* trigger) {
   const bool was_compressed = compressed();
   open_ = compressed_ = false;
+  const int active_states = vehicle_ + 2 * static_cast<int>(active_.size());
   active_.clear();
   if (!was_compressed) return;
   const auto t0 = std::chrono::steady_clock::now();
   ++stats_.global_updates;
+  switch (reason) {
+    case CekfClosureReason::kGrown:
+      ++stats_.grown;
+      break;
+    case CekfClosureReason::kLandmarkInReach:
+      ++stats_.landmark_in_reach;
+      break;
+    case CekfClosureReason::kPairingOutside:
+      ++stats_.pairing_outside;
+      break;
+    case CekfClosureReason::kFlush:
+      ++stats_.flushes;
+      break;
+  }
   EkfSlam& g = *g_;
+  if (log_ != nullptr) {
+    CekfClosure c;
+    c.reason = reason;
+    c.pose = g.pose();
+    c.opened = opened_;
+    if (trigger != nullptr) c.trigger = *trigger;
+    c.opened_states = n_a0_;
+    c.active_states = active_states;
+    c.states = static_cast<std::size_t>(g.dim_);
+    c.updates = area_updates_;
+    log_->push_back(c);
+  }
   mapRows();
   rows_dirty_ = true;
   const int m = static_cast<int>(local_rows_.size());
@@ -218,14 +261,15 @@ bool CompressedEkf::update(const std::vector<Pairing>& pairings, const RangeBear
     }
     if (!outside.empty()) {
       // A landmark of B paired: bring everything up to date and make it part of a new area.
-      ++stats_.pairing_outside;
-      closePhase();
+      const Eigen::Vector2d at = g_->landmark(g_->indexOf(outside.front()));
+      closePhase(CekfClosureReason::kPairingOutside, &at);
       openPhase(outside);
     }
   }
   if (!compressed_) return g_->update(pairings, model, nis);
   const std::uint64_t clamps = local_.clamps_, refusals = local_.refusals_;
   const bool ok = local_.update(pairings, model, nis);
+  ++area_updates_;
   g_->clamps_ += local_.clamps_ - clamps;
   g_->refusals_ += local_.refusals_ - refusals;
   if (ok) scatter(/*vehicle_only=*/false);
@@ -278,8 +322,7 @@ bool CompressedEkf::prepare(const LandmarkIndex& index, const Eigen::Vector2d& s
   // it has doubled: amortised, it costs N^2 per new landmark state.
   const int active = vehicle_ + 2 * static_cast<int>(active_.size());
   if (active > kGrowth * n_a0_ + kGrowthSlack) {
-    ++stats_.grown;
-    closePhase();
+    closePhase(CekfClosureReason::kGrown);
     return true;
   }
   // Correctness: every landmark the associators may read must be in A.
@@ -287,16 +330,13 @@ bool CompressedEkf::prepare(const LandmarkIndex& index, const Eigen::Vector2d& s
   index.query(*g_, sensor, radius, &near_);
   for (const int k : near_) {
     if (active_.count(g_->landmarkIds()[k])) continue;
-    ++stats_.landmark_in_reach;
-    closePhase();
+    const Eigen::Vector2d at = g_->landmark(k);
+    closePhase(CekfClosureReason::kLandmarkInReach, &at);
     return true;
   }
   return false;
 }
 
-void CompressedEkf::flush() {
-  if (compressed()) ++stats_.flushes;
-  closePhase();
-}
+void CompressedEkf::flush() { closePhase(CekfClosureReason::kFlush); }
 
 }  // namespace ekf_slam

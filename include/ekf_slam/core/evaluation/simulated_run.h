@@ -122,6 +122,8 @@ class KnownAssociation : public DataAssociation {
   void setTruth(std::vector<LandmarkId> truth) { truth_ = std::move(truth); }
   AssociationResult associate(const AssociationContext& context) override;
   void landmarkAdded(int obs, LandmarkId id) override;
+  /// A loaded map's ids are taken as truth ids (bench_cekf's prior maps).
+  void landmarkLoaded(LandmarkId id, std::uint32_t) override { landmark_of_[id] = id; }
   void reset() override { landmark_of_.clear(); }
 
  private:

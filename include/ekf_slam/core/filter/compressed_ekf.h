@@ -16,6 +16,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <unordered_set>
 #include <vector>
 
@@ -32,9 +33,35 @@ struct CompressedEkfParams {
   double area_size = 50.0;
   /// A landmark outside A within reach + margin of the sensor forces a global update [m].
   double margin = 10.0;
+  /// A also holds the landmarks up to this much farther from the stretch than reach + margin:
+  /// room for the pose estimate to move against the map (loop-closure corrections, the path
+  /// leaving the straight line) before a landmark outside A comes within the rule-1 radius [m].
+  double slack = 0.0;
   /// Farthest a landmark the associators read lies from the vehicle: observation range plus the
   /// sensor's offset [m].
   double reach = 30.0;
+};
+
+/// Why a compressed area was closed by a global update (docs/cekf.md, rules 1-4).
+enum class CekfClosureReason {
+  kGrown,            ///< rule 2: A grew past kGrowth its size at the opening
+  kLandmarkInReach,  ///< rule 1: a landmark of B within reach + margin of the sensor
+  kPairingOutside,   ///< rule 3: an update paired a landmark of B
+  kFlush,            ///< rule 4: the whole state was asked for
+};
+const char* toString(CekfClosureReason reason);
+
+/// One global update, as logged by CompressedEkf::setClosureLog (where and why areas close).
+struct CekfClosure {
+  CekfClosureReason reason = CekfClosureReason::kFlush;
+  Eigen::Vector3d pose = Eigen::Vector3d::Zero();    ///< the vehicle's at the closure
+  Eigen::Vector3d opened = Eigen::Vector3d::Zero();  ///< the vehicle's when the area opened
+  /// The landmark of B that closed it (rules 1 and 3, its stale estimate), else NaN.
+  Eigen::Vector2d trigger = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  int opened_states = 0;      ///< A's states at the opening (the global update's rank)
+  int active_states = 0;      ///< A's states at the closure
+  std::size_t states = 0;     ///< the whole state's size N
+  std::uint64_t updates = 0;  ///< updates run on A in this area
 };
 
 /// What the compressed filter did (over its life).
@@ -61,6 +88,8 @@ class CompressedEkf {
   const CompressedEkfStats& stats() const { return stats_; }
   /// Flops of the EKF updates on A (the private filter's UpdateStats), over the filter's life.
   double activeUpdateFlops() const { return local_.updateStats().flops; }
+  /// Appends one record per global update to `log` (null: none); `log` outlives this object.
+  void setClosureLog(std::vector<CekfClosure>* log) { log_ = log; }
   /// The sensing reach (observation range plus the sensor's offset) for the next areas [m].
   void setReach(double reach) { p_.reach = reach; }
 
@@ -93,8 +122,9 @@ class CompressedEkf {
   void ensurePhase();
   /// Opens an area centred on the vehicle; `extra` landmarks join A whatever their position.
   void openPhase(const std::vector<LandmarkId>& extra = {});
-  /// Global update (compressed phase) and closes the phase.
-  void closePhase();
+  /// Global update (compressed phase) and closes the phase; `trigger`: the landmark of B that
+  /// made it necessary (rules 1 and 3), for the log.
+  void closePhase(CekfClosureReason reason, const Eigen::Vector2d* trigger = nullptr);
   /// Global rows of the private filter's real (non-phantom) states, in order (both orders agree).
   void mapRows();
   /// Copies the private filter's real states (mean and covariance) into the global filter;
@@ -114,6 +144,9 @@ class CompressedEkf {
   bool open_ = false;
   bool compressed_ = false;
   Eigen::Vector2d centre_ = Eigen::Vector2d::Zero();  // vehicle position at the opening
+  Eigen::Vector3d opened_ = Eigen::Vector3d::Zero();  // vehicle pose at the opening
+  std::uint64_t area_updates_ = 0;                    // updates on A since the opening
+  std::vector<CekfClosure>* log_ = nullptr;
   std::unordered_set<LandmarkId> active_;
   EkfSlam local_;
   int vehicle_ = 3;                // vehicle states (3 + correction states)

@@ -68,15 +68,14 @@ sensor_msgs::LaserScan toScanMsg(const LaserScanData& d, const ros::Time& stamp,
 
 // The twist covariance the filter assumes for this sample (TwistModel::step: the standard
 // deviations grow with |v|), so a consumer reading the covariance gets what the YAML configures.
-void setTwistCovariance(const TwistParams& p, const Eigen::Vector2d& twist,
+void setTwistCovariance(const TwistModel& model, const Eigen::Vector2d& twist,
                         boost::array<double, 36>* c) {
   std::fill(c->begin(), c->end(), 0.0);
   for (int k = 1; k < 5; ++k) (*c)[k * 6 + k] = kPlanarVariance;
-  const double av = std::abs(twist.x());
-  const double sv = p.sigma_v + p.sigma_v_per_v * av;
-  const double sw = p.sigma_w + p.sigma_w_per_v * av;
-  (*c)[0] = sv * sv;
-  (*c)[35] = sw * sw;
+  const Eigen::Matrix2d n = model.twistCovariance(twist);  // (v, w): rows 0 and 5
+  (*c)[0] = n(0, 0);
+  (*c)[5] = (*c)[30] = n(0, 1);
+  (*c)[35] = n(1, 1);
 }
 
 Landmark makeLandmark(LandmarkId id, const Eigen::Vector2d& p) {
@@ -338,7 +337,7 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
         odom.pose.covariance = toCovarianceMsg(odom_cov, kPlanarVariance);
         odom.twist.twist.linear.x = o.twist.x();
         odom.twist.twist.angular.z = o.twist.y();
-        setTwistCovariance(twist_noise, o.twist, &odom.twist.covariance);
+        setTwistCovariance(odom_model, o.twist, &odom.twist.covariance);
         bag.write("/odom", t, odom);
 
         nav_msgs::Odometry truth;  // covariances stay zero: the truth is exact

@@ -370,8 +370,7 @@ void SlamPipeline::relocaliseScan(ScanReport* report) {
   report->lost = true;
   report->association.resize(report->observations.size());
   const RelocalisationResult r = callRelocaliser(report);
-  if (usable(r, report->observations.size()) && applyIfConfirmed(r, report, window_first_scan_))
-    return;
+  if (usable(r, report->observations.size()) && applyIfConfirmed(r, report)) return;
   // Not found for too long (the rule fired wrongly, or the vehicle left the map): tracking
   // resumes from the dead-reckoned estimate rather than freezing the map forever.
   if (!pose_unknown_ && config_.lost_max_scans > 0 && ++lost_scans_ >= config_.lost_max_scans) {
@@ -383,9 +382,8 @@ void SlamPipeline::relocaliseScan(ScanReport* report) {
   }
 }
 
-bool SlamPipeline::applyIfConfirmed(const RelocalisationResult& r, ScanReport* report,
-                                    std::optional<std::uint32_t> first_scan) {
-  if (confirmedFix(r, first_scan.value_or(report->scan), report->scan)) {
+bool SlamPipeline::applyIfConfirmed(const RelocalisationResult& r, ScanReport* report) {
+  if (confirmedFix(r, window_first_scan_, report->scan)) {
     applyRelocalisation(r, report);
     return true;
   }

@@ -456,10 +456,9 @@ class SlamPipeline {
   std::uint32_t fix_last_scan_ = 0;  // the newest scan the held fix used
   bool confirmedFix(const RelocalisationResult& r, std::uint32_t first_scan,
                     std::uint32_t last_scan);
-  // Applies a found fix once confirmed (true); else holds it, counted, and says so in the report.
-  // first_scan: the oldest scan the fix used (its window), by default the report's.
-  bool applyIfConfirmed(const RelocalisationResult& r, ScanReport* report,
-                        std::optional<std::uint32_t> first_scan = std::nullopt);
+  // Applies a found fix of the last callRelocaliser() once confirmed (true); else holds it,
+  // counted, and says so in the report. Its scans are window_first_scan_ .. the report's.
+  bool applyIfConfirmed(const RelocalisationResult& r, ScanReport* report);
   // relocalisation_window_scans > 1: the scans since going lost (mutable: the odometry reaches it
   // in applyPendingMotion); the carried observations the last window call paired, ready for the
   // update, and the window's oldest scan.

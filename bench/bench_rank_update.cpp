@@ -2,6 +2,8 @@
 // that sets the EKF update's floor in docs/benchmarks_vp.md (scripts/bench_vp.sh).
 //
 //   bench_rank_update [N d] [--repeat R]    (default: a grid of N = 250 .. 2000, d = 4 .. 16)
+//   bench_rank_update --replay update_shapes.csv [--repeat R]
+//                                           (a run's every update shape, ekf_slam_offline's output)
 //
 // Every variant is counted at N^2 d flops (a triangle-only update), so the rates compare times:
 //   triangle  Eigen's selfadjointView<Lower>().rankUpdate (lower triangle only): the floor;
@@ -12,6 +14,8 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -61,17 +65,64 @@ void run(Eigen::Index n, Eigen::Index d, int repeat) {
               flops / tri * 1e-9, flops / mir * 1e-9, flops / pan * 1e-9, flops / full * 1e-9);
 }
 
+// The run's rank downdates alone: every shape (N, d) of `file` (n,d,updates) timed best of
+// `repeat` for the triangle (the floor) and the kernel, times its count. Small d is memory-bound,
+// so this floor at the run's exact sizes is above the one at its flop-weighted size.
+int replay(const std::string& file, int repeat) {
+  std::ifstream in(file);
+  if (!in) {
+    std::fprintf(stderr, "bench_rank_update: cannot read '%s'\n", file.c_str());
+    return 2;
+  }
+  std::string line;
+  std::getline(in, line);  // header
+  double flops = 0.0, tri = 0.0, ker = 0.0;
+  long updates = 0, shapes = 0;
+  std::vector<double> workspace;
+  while (std::getline(in, line)) {
+    std::istringstream row(line);
+    long n = 0, d = 0, count = 0;
+    char c1 = 0, c2 = 0;
+    if (!(row >> n >> c1 >> d >> c2 >> count) || n <= 0 || d <= 0 || count <= 0) {
+      std::fprintf(stderr, "bench_rank_update: bad row '%s' in %s\n", line.c_str(), file.c_str());
+      return 2;
+    }
+    const Eigen::MatrixXd W = Eigen::MatrixXd::Random(n, d) * 0.1;
+    Eigen::MatrixXd P0 = W * W.transpose();
+    P0.diagonal().array() += 1.0;
+    const double k = static_cast<double>(count);
+    flops += k * ekf_slam::rankDowndateFlops(n, d);
+    tri += k * bestSeconds(P0, repeat, [&](Eigen::MatrixXd& P) {
+             P.selfadjointView<Eigen::Lower>().rankUpdate(W, -1.0);
+           });
+    ker += k * bestSeconds(P0, repeat, [&](Eigen::MatrixXd& P) {
+             ekf_slam::lowerRankDowndate(
+                 ekf_slam::MatrixView(P.data(), n, n, Eigen::OuterStride<>(n)), W, &workspace);
+           });
+    updates += count;
+    ++shapes;
+  }
+  std::printf("replay of %s: %ld updates in %ld shapes, %.3f GFLOP of rank downdates, best of %d\n",
+              file.c_str(), updates, shapes, flops * 1e-9, repeat);
+  std::printf("triangle (floor) %.3f s (%.2f GFLOP/s) | kernel %.3f s (%.2f GFLOP/s)\n", tri,
+              flops / tri * 1e-9, ker, flops / ker * 1e-9);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   int repeat = 30;
+  std::string replay_file;
   std::vector<long> sizes;
   for (std::size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--repeat" && i + 1 < args.size()) {
+    if (args[i] == "--replay" && i + 1 < args.size()) {
+      replay_file = args[++i];
+    } else if (args[i] == "--repeat" && i + 1 < args.size()) {
       repeat = std::max(1, std::atoi(args[++i].c_str()));
     } else if (args[i] == "-h" || args[i] == "--help") {
-      std::printf("usage: bench_rank_update [N d] [--repeat R]\n");
+      std::printf("usage: bench_rank_update [N d | --replay update_shapes.csv] [--repeat R]\n");
       return 0;
     } else {
       char* end = nullptr;
@@ -84,6 +135,7 @@ int main(int argc, char** argv) {
       sizes.push_back(v);
     }
   }
+  if (!replay_file.empty()) return replay(replay_file, repeat);
   if (sizes.size() != 0 && sizes.size() != 2) {
     std::fprintf(stderr, "bench_rank_update: give both N and d, or neither\n");
     return 2;

@@ -762,6 +762,15 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     }
   }
 
+  // The update's shapes (N, d) and their counts: bench_rank_update --replay times the run's rank
+  // downdates alone, the floor of docs/benchmarks_vp.md at the run's exact sizes.
+  {
+    std::ofstream sh = openOutput(o.out_dir + "/update_shapes.csv");
+    sh << "n,d,updates\n";
+    for (const auto& [shape, count] : ekf.updateStats().shapes)
+      sh << shape.first << ',' << shape.second << ',' << count << '\n';
+  }
+
   // The final map in the ~save_map format, so that runs chain (--load-map).
   pipeline.saveMap(o.out_dir + "/map.txt");
 

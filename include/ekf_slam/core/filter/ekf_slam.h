@@ -9,7 +9,9 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -53,6 +55,9 @@ struct UpdateStats {
   /// Sums of N and d weighted by each update's rank flops: divided by rank_flops, the state size
   /// and dimension at which the run does its rank updates (the size to benchmark the floor at).
   double weighted_n = 0.0, weighted_d = 0.0;
+  /// Updates per shape (N, d): the run's exact sequence of sizes, to replay its rank downdates in
+  /// isolation (bench_rank_update --replay, docs/benchmarks_vp.md).
+  std::map<std::pair<int, int>, std::uint64_t> shapes;
 };
 
 class EkfSlam {

@@ -99,6 +99,21 @@ TEST(EkfStorage, RemovalKeepsTheStorageAndTheOtherEntries) {
   }
 }
 
+TEST(EkfStorage, UpdateShapesAreCountedOnlyWhenAsked) {
+  const RangeBearingModel model;
+  EkfSlam ekf = ringFilter(20, model);  // N = 43
+  ASSERT_TRUE(ekf.update(pairings(ekf, {1, 5, 9}, model), model));
+  EXPECT_TRUE(ekf.updateStats().shapes.empty());
+  ekf.recordUpdateShapes(true);
+  ASSERT_TRUE(ekf.update(pairings(ekf, {1, 5, 9}, model), model));
+  ASSERT_TRUE(ekf.update(pairings(ekf, {2, 6, 10}, model), model));
+  ASSERT_TRUE(ekf.update(pairings(ekf, {3}, model), model));
+  const auto& shapes = ekf.updateStats().shapes;
+  ASSERT_EQ(shapes.size(), 2u);
+  EXPECT_EQ(shapes.at({43, 6}), 2u);  // N = 3 + 2 x 20, d = 2 x 3 pairings
+  EXPECT_EQ(shapes.at({43, 2}), 1u);
+}
+
 TEST(EkfStorage, UpdateDoesNotAllocateOnceWarm) {
   if (!kCanCountMallocs) GTEST_SKIP() << "AddressSanitizer owns malloc: allocations not counted";
   const RangeBearingModel model;

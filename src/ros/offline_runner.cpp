@@ -442,6 +442,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   assoc_params.rejectUnread();
   extractor_params.rejectUnread();
   SlamPipeline pipeline(config, capturing);
+  pipeline.recordUpdateShapes(true);  // update_shapes.csv
   pipeline.setFeatureExtractor(feature_extractor);
   pipeline.setScanFilter(scan_filter);
 

@@ -331,6 +331,8 @@ class SlamPipeline {
     applyPendingMotion();
     return ekf_;
   }
+  /// Count the EKF's updates per shape (N, d) (EkfSlam::recordUpdateShapes; benchmarks only).
+  void recordUpdateShapes(bool on) { ekf_.recordUpdateShapes(on); }
   /// The compressed filter (filter cekf), else null.
   const CompressedEkf* compressedEkf() const { return cekf_.get(); }
   CompressedEkf* compressedEkf() { return cekf_.get(); }

@@ -288,7 +288,7 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   stats_.flops += rank_flops + static_cast<double>(n) * d * (12.0 + d);
   stats_.weighted_n += rank_flops * static_cast<double>(n);
   stats_.weighted_d += rank_flops * static_cast<double>(d);
-  ++stats_.shapes[{static_cast<int>(n), static_cast<int>(d)}];
+  if (record_shapes_) ++stats_.shapes[{static_cast<int>(n), static_cast<int>(d)}];
   if (nis) *nis = v.squaredNorm();
   return true;
 }

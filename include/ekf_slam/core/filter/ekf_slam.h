@@ -55,8 +55,9 @@ struct UpdateStats {
   /// Sums of N and d weighted by each update's rank flops: divided by rank_flops, the state size
   /// and dimension at which the run does its rank updates (the size to benchmark the floor at).
   double weighted_n = 0.0, weighted_d = 0.0;
-  /// Updates per shape (N, d): the run's exact sequence of sizes, to replay its rank downdates in
-  /// isolation (bench_rank_update --replay, docs/benchmarks_vp.md).
+  /// Updates per shape (N, d), only after EkfSlam::recordUpdateShapes(true) (a new shape
+  /// allocates): the run's exact sizes, to replay its rank downdates alone (bench_rank_update
+  /// --replay, docs/benchmarks_vp.md).
   std::map<std::pair<int, int>, std::uint64_t> shapes;
 };
 
@@ -121,6 +122,8 @@ class EkfSlam {
     return storedCovariance().block<2, 2>(stateRow(index), stateRow(index));
   }
   const UpdateStats& updateStats() const { return stats_; }
+  /// Count the updates per shape in updateStats().shapes (off: the update allocates nothing).
+  void recordUpdateShapes(bool on) { record_shapes_ = on; }
 
   /// Jacobians at the current estimate (default) or at the first estimates. Kept over reset().
   void setLinearisation(Linearisation l) { linearisation_ = l; }
@@ -226,6 +229,7 @@ class EkfSlam {
   std::uint64_t clamps_ = 0, refusals_ = 0;
 
   UpdateStats stats_;
+  bool record_shapes_ = false;
 
   Linearisation linearisation_ = Linearisation::kStandard;
   bool second_order_ = false;

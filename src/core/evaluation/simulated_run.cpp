@@ -472,9 +472,11 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
       report = pipeline->processObservations(set.stamp + sim::kStampOffset, set.toObservations());
       for (const std::uint32_t i : report.input_index) truth.push_back(all[i]);
     }
-    // activeEkf(): after a scan nothing is pending, so reading it changes nothing.
+    // activeEkf(): after a processed scan no motion is pending, so reading it changes nothing
+    // (a dropped duplicate scan returns before the prediction: not read then).
+    const bool read_map = scorer.needsMap(report) && !report.duplicate;
     scorer.addScan(report, truth, pipeline->pose(), pipeline->poseCovariance(), &set.true_pose,
-                   scorer.needsMap(report) ? &pipeline->activeEkf() : nullptr);
+                   read_map ? &pipeline->activeEkf() : nullptr);
     return true;
   });
   if (nees_per_scan != nullptr) *nees_per_scan = scorer.neesPerScan();

@@ -221,6 +221,9 @@ class RunScorer {
   const AssociationScorer& scorer() const { return scorer_; }
 
  private:
+  /// mapRelativeError's transform; nothing with fewer than kMinAlignmentLandmarks.
+  std::optional<RigidTransform2> mapAlignment(const EkfSlam& map) const;
+
   double nees_skip_s_;
   double first_stamp_ = 0.0;
   bool have_first_ = false;
@@ -245,8 +248,7 @@ class RunScorer {
   double recovery_s_ = std::numeric_limits<double>::quiet_NaN();
   double after_sum_ = 0.0;
   std::uint64_t after_n_ = 0, relocalisations_ = 0, wrong_relocalisations_ = 0;
-  // Recovery against the map (mapAlignment: nothing with fewer than kMinAlignmentLandmarks).
-  std::optional<RigidTransform2> mapAlignment(const EkfSlam& map) const;
+  // Recovery against the map.
   bool expect_kidnap_ = false, recovered_map_ = false, map_window_passed_ = false;
   double last_error_map_ = std::numeric_limits<double>::quiet_NaN();
   double error_before_kidnap_map_ = std::numeric_limits<double>::quiet_NaN();

@@ -5,7 +5,10 @@
 #include <cmath>
 #include <memory>
 #include <stdexcept>
+#include <unordered_map>
 #include <vector>
+
+#include <Eigen/Geometry>
 
 #include "ekf_slam/core/association/djnn.h"
 #include "ekf_slam/core/association/nn.h"
@@ -105,6 +108,111 @@ TEST(RunScorer, ErrorsBeforeAndAfterTheKidnap) {
   quiet.addScan(r, {}, truth, Eigen::Matrix3d::Identity(), &truth);
   EXPECT_TRUE(std::isnan(quiet.metrics(nullptr).error_before_kidnap_m));
   EXPECT_TRUE(std::isnan(quiet.metrics(nullptr).error_after_kidnap_m));
+}
+
+// A map and a pose both displaced from the truth by the same rigid transform (the filter's
+// gauge drift): the pose is right in its map. Six landmarks (ids = truth ids 0..5) seen at scan 0;
+// scans at 5 Hz along x; the kidnap comes before scan 5, the relocalisation at scan 7 puts the
+// pose `fix_offset` (in the map frame) from where the map says it is, and it stays there. A
+// younger duplicate of landmark 0 appears at the kidnapped pose (scan 5), as a filter makes one.
+RunMetrics driftedMapRun(const Eigen::Vector2d& fix_offset) {
+  const std::vector<Eigen::Vector2d> landmarks = {{0, 20},   {30, 25},  {60, 18},
+                                                  {10, -15}, {40, -22}, {70, -12}};
+  const double yaw = 0.04;  // the drift: 0.04 rad about the origin, then (2.5, -1) m
+  const Eigen::Vector2d shift(2.5, -1.0);
+  const auto drift = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector2d q = Eigen::Rotation2Dd(yaw) * p.head<2>() + shift;
+    return Eigen::Vector3d(q.x(), q.y(), p.z() + yaw);
+  };
+  RunScorer scorer;
+  std::unordered_map<LandmarkId, Eigen::Vector2d> true_map;
+  EkfSlam map;
+  for (std::size_t i = 0; i < landmarks.size(); ++i) {
+    true_map[static_cast<LandmarkId>(i)] = landmarks[i];
+    map.insertLandmark(drift(Eigen::Vector3d(landmarks[i].x(), landmarks[i].y(), 0)).head<2>(),
+                       Eigen::Matrix2d::Identity(), static_cast<LandmarkId>(i));
+  }
+  scorer.setTrueMap(true_map);
+  scorer.expectKidnap();
+  const Eigen::Matrix3d cov = Eigen::Matrix3d::Identity();
+  for (int k = 0; k < 20; ++k) {
+    ScanReport r;
+    r.stamp = 0.2 * k;
+    std::vector<LandmarkId> truth;
+    if (k == 0) {  // every landmark created
+      for (std::size_t i = 0; i < landmarks.size(); ++i) truth.push_back(static_cast<int>(i));
+      r.observations.resize(truth.size());
+      r.association.resize(truth.size());
+      for (std::size_t i = 0; i < truth.size(); ++i) {
+        r.association.decision[i] = Decision::kNew;
+        r.association.landmark[i] = truth[i];
+      }
+    }
+    if (k == 5) {  // the duplicate of landmark 0, made at the kidnapped pose
+      scorer.markKidnap();
+      truth = {0};
+      r.observations.resize(1);
+      r.association.resize(1);
+      r.association.decision[0] = Decision::kNew;
+      r.association.landmark[0] = map.insertLandmark({-40, 60}, Eigen::Matrix2d::Identity(), 100);
+    }
+    // The truth drives along x and is kidnapped 30 m further on at scan 5.
+    const Eigen::Vector3d true_pose(2.0 * k + (k >= 5 ? 30.0 : 0.0), 0.0, 0.1);
+    Eigen::Vector3d estimate = drift(true_pose);
+    if (k == 5 || k == 6) estimate = drift(Eigen::Vector3d(2.0 * k, 0.0, 0.1));  // not yet found
+    if (k >= 7) estimate.head<2>() += fix_offset;
+    if (k == 7) {
+      r.relocalised = true;
+      r.relocalisation.pose = estimate;
+    }
+    scorer.addScan(r, truth, estimate, cov, &true_pose, &map);
+  }
+  return scorer.metrics(nullptr);
+}
+
+TEST(RunScorer, RecoveryAgainstTheMapIgnoresTheMapsRigidDrift) {
+  const RunMetrics m = driftedMapRun(Eigen::Vector2d::Zero());
+  // In the world frame the drift alone is 2.6-2.8 m: never "recovered", the fix "wrong".
+  EXPECT_GT(m.error_before_kidnap_m, 2.0);
+  EXPECT_EQ(m.recovery_scans, -1);
+  EXPECT_EQ(m.relocalisations, 1u);
+  EXPECT_EQ(m.wrong_relocalisations, 1u);
+  // Against the map: exact before, recovered at the relocalisation (2 scans after the kidnap),
+  // the fix right; the duplicate at the kidnapped pose does not move the alignment.
+  EXPECT_NEAR(m.error_before_kidnap_map_m, 0.0, 1e-9);
+  EXPECT_EQ(m.recovery_scans_map, 2);
+  EXPECT_NEAR(m.recovery_s_map, 0.4, 1e-9);
+  EXPECT_NEAR(m.error_after_kidnap_map_m, 0.0, 1e-9);  // scan 15
+  EXPECT_EQ(m.wrong_relocalisations_map, 0u);
+}
+
+TEST(RunScorer, APoseWrongInItsMapIsNotRecovered) {
+  // 1.5 m off in its own map: not recovered (over 1 m), not a wrong fix (under 2 m) ...
+  const RunMetrics m = driftedMapRun(Eigen::Vector2d(0.0, 1.5));
+  EXPECT_EQ(m.recovery_scans_map, -1);
+  EXPECT_TRUE(std::isnan(m.recovery_s_map));
+  EXPECT_NEAR(m.error_after_kidnap_map_m, 1.5, 1e-9);
+  EXPECT_EQ(m.wrong_relocalisations_map, 0u);
+  // ... 3 m off: a wrong fix in its map.
+  EXPECT_EQ(driftedMapRun(Eigen::Vector2d(3.0, 0.0)).wrong_relocalisations_map, 1u);
+}
+
+TEST(RunScorer, MapRelativeErrorNeedsThreeIdentifiedLandmarks) {
+  RunScorer scorer;
+  scorer.setTrueMap({{0, Eigen::Vector2d(0, 10)}, {1, Eigen::Vector2d(10, 0)}});
+  EkfSlam map;
+  ScanReport r;
+  r.observations.resize(2);
+  r.association.resize(2);
+  for (int i = 0; i < 2; ++i) {
+    r.association.decision[i] = Decision::kNew;
+    r.association.landmark[i] =
+        map.insertLandmark(Eigen::Vector2d(10.0 * i, 10.0 - 10.0 * i), Eigen::Matrix2d::Identity());
+  }
+  const Eigen::Vector3d pose = Eigen::Vector3d::Zero();
+  scorer.addScan(r, {0, 1}, pose, Eigen::Matrix3d::Identity(), &pose, &map);
+  EXPECT_TRUE(std::isnan(scorer.mapRelativeError(map, pose, pose).position));
+  EXPECT_TRUE(std::isnan(scorer.mapRelativeError(map, pose, pose).heading));
 }
 
 // Regression guard, generous on purpose: the tiny world (8 landmarks, a mover, clutter) through

@@ -192,9 +192,55 @@ void KnownAssociation::landmarkAdded(int obs, LandmarkId id) {
 
 // --- RunScorer -----------------------------------------------------------------------------------
 
+namespace {
+
+PoseError errorAfter(const RigidTransform2& align, const Eigen::Vector3d& estimate,
+                     const Eigen::Vector3d& true_pose) {
+  PoseError e;
+  e.position = (align.apply(estimate.head<2>()) - true_pose.head<2>()).norm();
+  e.heading = std::abs(wrapAngle(estimate.z() + align.yaw - true_pose.z()));
+  return e;
+}
+
+}  // namespace
+
+std::optional<RigidTransform2> RunScorer::mapAlignment(const EkfSlam& map) const {
+  // Per static truth identity, the oldest landmark holding it (its position).
+  std::unordered_map<LandmarkId, std::pair<LandmarkId, Eigen::Vector2d>> oldest;
+  for (std::size_t k = 0; k < map.numLandmarks(); ++k) {
+    const LandmarkId id = map.landmarkIds()[k];
+    LandmarkId truth = -1;
+    if (!scorer_.identity(id, &truth) || true_map_.count(truth) == 0) continue;
+    const Eigen::Vector2d position = map.landmark(static_cast<int>(k));
+    const auto [it, added] = oldest.try_emplace(truth, id, position);
+    if (!added && id < it->second.first) it->second = {id, position};
+  }
+  if (oldest.size() < kMinAlignmentLandmarks) return std::nullopt;
+  std::vector<Eigen::Vector2d> from, to;
+  from.reserve(oldest.size());
+  to.reserve(oldest.size());
+  for (const auto& [truth, landmark] : oldest) {
+    from.push_back(landmark.second);
+    to.push_back(true_map_.at(truth));
+  }
+  return alignRigid2D(from, to);
+}
+
+PoseError RunScorer::mapRelativeError(const EkfSlam& map, const Eigen::Vector3d& estimate,
+                                      const Eigen::Vector3d& true_pose) const {
+  const std::optional<RigidTransform2> align = mapAlignment(map);
+  return align ? errorAfter(*align, estimate, true_pose) : PoseError();
+}
+
+bool RunScorer::needsMap(const ScanReport& report) const {
+  const bool before = expect_kidnap_ && !kidnapped_ && !kidnap_pending_;
+  const bool after = (kidnapped_ || kidnap_pending_) && !(recovered_map_ && map_window_passed_);
+  return !true_map_.empty() && (report.relocalised || before || after);
+}
+
 void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>& truth,
                         const Eigen::Vector3d& estimate, const Eigen::Matrix3d& cov,
-                        const Eigen::Vector3d* true_pose) {
+                        const Eigen::Vector3d* true_pose, const EkfSlam* map) {
   if (truth.size() != report.observations.size()) {
     throw std::invalid_argument("RunScorer: " + std::to_string(truth.size()) + " truth ids for " +
                                 std::to_string(report.observations.size()) + " observations");
@@ -208,24 +254,43 @@ void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>&
     have_first_ = true;
     first_stamp_ = report.stamp;
   }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // Decided before this scan changes the kidnap state, as the caller decided.
+  const std::optional<RigidTransform2> align =
+      map != nullptr && true_pose != nullptr && needsMap(report) ? mapAlignment(*map)
+                                                                 : std::nullopt;
   if (kidnap_pending_) {
     kidnap_pending_ = false;
     kidnapped_ = true;
     kidnap_scan_ = scans_ - 1;
     kidnap_stamp_ = report.stamp;
     error_before_kidnap_ = last_error_;
+    error_before_kidnap_map_ = last_error_map_;
   }
   if (report.relocalised) {
     ++relocalisations_;
     if (true_pose != nullptr) {
+      const auto wrong = [&](const PoseError& e) {
+        return e.position > kWrongRelocalisationDistance || e.heading > kWrongRelocalisationAngle;
+      };
       const Eigen::Vector3d& p = report.relocalisation.pose;
-      const bool wrong =
-          (p.head<2>() - true_pose->head<2>()).norm() > kWrongRelocalisationDistance ||
-          std::abs(wrapAngle(p.z() - true_pose->z())) > kWrongRelocalisationAngle;
-      wrong_relocalisations_ += wrong;
+      wrong_relocalisations_ += wrong(errorAfter(RigidTransform2(), p, *true_pose));
+      if (align) wrong_relocalisations_map_ += wrong(errorAfter(*align, p, *true_pose));
     }
   }
-  double nees = std::numeric_limits<double>::quiet_NaN();
+  // NaN where not measured (no map, or too few identified landmarks).
+  const double in_map = align ? errorAfter(*align, estimate, *true_pose).position : nan;
+  if (!kidnapped_ && map != nullptr) last_error_map_ = in_map;
+  if (kidnapped_ && !recovered_map_ && in_map < kRecoveredDistance) {
+    recovered_map_ = true;
+    recovery_scans_map_ = static_cast<std::int64_t>(scans_ - 1 - kidnap_scan_);
+    recovery_s_map_ = report.stamp - kidnap_stamp_;
+  }
+  if (kidnapped_ && !map_window_passed_ && report.stamp - kidnap_stamp_ >= kRecoveryWindow - 1e-6) {
+    map_window_passed_ = true;
+    error_after_kidnap_map_ = in_map;
+  }
+  double nees = nan;
   Eigen::Vector2d error = Eigen::Vector2d::Constant(nees);
   if (true_pose != nullptr) {
     const double distance = (estimate.head<2>() - true_pose->head<2>()).norm();
@@ -324,6 +389,11 @@ RunMetrics RunScorer::metrics(const SlamPipeline* pipeline) const {
       after_n_ > 0 ? std::sqrt(after_sum_ / static_cast<double>(after_n_)) : nan;
   m.error_before_kidnap_m = error_before_kidnap_;
   m.error_after_kidnap_m = error_after_kidnap_;
+  m.recovery_scans_map = recovery_scans_map_;
+  m.recovery_s_map = recovery_s_map_;
+  m.error_before_kidnap_map_m = error_before_kidnap_map_;
+  m.error_after_kidnap_map_m = error_after_kidnap_map_;
+  m.wrong_relocalisations_map = wrong_relocalisations_map_;
   return m;
 }
 
@@ -381,6 +451,7 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
   sim::Simulation simulation(world, seed);
   RunScorer scorer;
   scorer.setTrueMap({beacons.begin(), beacons.end()});
+  if (!world.kidnaps.empty()) scorer.expectKidnap();
   std::vector<LandmarkId> truth;
   feedSimulation(simulation, *pipeline, [&](const sim::ObservationSet& set) {
     if (simulation.kidnapsApplied() > kidnaps) {
@@ -401,7 +472,11 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
       report = pipeline->processObservations(set.stamp + sim::kStampOffset, set.toObservations());
       for (const std::uint32_t i : report.input_index) truth.push_back(all[i]);
     }
-    scorer.addScan(report, truth, pipeline->pose(), pipeline->poseCovariance(), &set.true_pose);
+    // activeEkf(): after a processed scan no motion is pending, so reading it changes nothing
+    // (a dropped duplicate scan returns before the prediction: not read then).
+    const bool read_map = scorer.needsMap(report) && !report.duplicate;
+    scorer.addScan(report, truth, pipeline->pose(), pipeline->poseCovariance(), &set.true_pose,
+                   read_map ? &pipeline->activeEkf() : nullptr);
     return true;
   });
   if (nees_per_scan != nullptr) *nees_per_scan = scorer.neesPerScan();

@@ -12,10 +12,13 @@
 //   RunMetrics m = runSimulation(world, /*seed=*/1, config, djnn);
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -25,6 +28,7 @@
 
 #include "ekf_slam/core/data_association.h"
 #include "ekf_slam/core/evaluation/association_metrics.h"
+#include "ekf_slam/core/evaluation/trajectory_metrics.h"
 #include "ekf_slam/core/simulation/simulator.h"
 #include "ekf_slam/core/slam_pipeline.h"
 
@@ -108,6 +112,22 @@ struct RunMetrics {
   /// bounds what any relocalisation in its map can reach.
   double error_before_kidnap_m = std::numeric_limits<double>::quiet_NaN();
   double error_after_kidnap_m = std::numeric_limits<double>::quiet_NaN();
+
+  // The same against the filter's own map (RunScorer's map-relative error: the pose after the
+  // rigid transform that best fits the map's identified landmarks onto their true positions).
+  // What a relocaliser can be held to: it places the vehicle in its map and cannot undo that
+  // map's drift. Needs the map at the scans (runSimulation passes it); NaN / -1 / 0 without.
+  /// Scans from the first kidnap until the map-relative position error is under
+  /// kRecoveredDistance; -1: never (or no kidnap, or no map).
+  std::int64_t recovery_scans_map = -1;
+  double recovery_s_map = std::numeric_limits<double>::quiet_NaN();  ///< the same in seconds
+  /// Map-relative position error at the last scan before the first kidnap and at the first scan
+  /// kRecoveryWindow after it (NaN: not measured, or fewer than kMinAlignmentLandmarks).
+  double error_before_kidnap_map_m = std::numeric_limits<double>::quiet_NaN();
+  double error_after_kidnap_map_m = std::numeric_limits<double>::quiet_NaN();
+  /// Relocalisations whose pose, mapped by the alignment of the map at that scan, is farther
+  /// than kWrongRelocalisation* from the truth (the fix is wrong in its own map).
+  std::uint64_t wrong_relocalisations_map = 0;
 };
 
 /// The true associations, for simulated runs (evaluation side, not an estimator): pairs each
@@ -140,6 +160,14 @@ constexpr double kRecoveredDistance = 1.0;
 /// RunMetrics::error_after_kidnap_m is taken this long after the kidnap [s] (seed 004's "at once"
 /// target: within 2 s).
 constexpr double kRecoveryWindow = 2.0;
+/// The map-relative error needs at least this many identified landmarks to fit the alignment.
+constexpr std::size_t kMinAlignmentLandmarks = 3;
+
+/// Position and absolute heading error of a pose after mapping it into the truth's frame.
+struct PoseError {
+  double position = std::numeric_limits<double>::quiet_NaN();  ///< [m]
+  double heading = std::numeric_limits<double>::quiet_NaN();   ///< [rad], in [0, pi]
+};
 
 /// Scores a run scan by scan: the association against the observations' truth ids, the pose
 /// against the true pose at the scan.
@@ -153,12 +181,31 @@ class RunScorer {
   /// One processed scan. truth[i] is the source of report.observations[i] (the sizes must
   /// agree: throws std::invalid_argument). `estimate` / `cov`: the pose after the update.
   /// `true_pose` may be null (no ground truth for this scan: pose metrics skip it).
+  /// `map` (may be null): the filter after the update, for the map-relative recovery metrics;
+  /// read only when needsMap(report) (pass it only then: it costs O(landmarks)).
   void addScan(const ScanReport& report, const std::vector<LandmarkId>& truth,
                const Eigen::Vector3d& estimate, const Eigen::Matrix3d& cov,
-               const Eigen::Vector3d* true_pose);
+               const Eigen::Vector3d* true_pose, const EkfSlam* map = nullptr);
+  /// Whether addScan reads the map for this scan: at a relocalisation, before the first kidnap
+  /// when one is expected (expectKidnap: for error_before_kidnap_map_m, the last such scan's),
+  /// and from the kidnap until the pose is recovered against the map and kRecoveryWindow has
+  /// passed. A run without kidnap or relocalisation never reads it (the city's 10 000 landmarks).
+  bool needsMap(const ScanReport& report) const;
 
+  /// The run will be kidnapped (the world has kidnap events): keep the map-relative error of
+  /// every scan until then, the last one being the "before" figure. (The map cannot be read when
+  /// markKidnap is called: SlamPipeline::ekf() would apply the pending motion early.)
+  void expectKidnap() { expect_kidnap_ = true; }
   /// The vehicle was kidnapped since the last scan: recovery is timed from the next scan.
   void markKidnap();
+
+  /// The pose error against `map`: the rigid transform that best fits (alignRigid2D) the map's
+  /// landmarks with a static truth identity onto their true positions (setTrueMap), applied to
+  /// `estimate`, compared with `true_pose`. One landmark per identity, the oldest (the
+  /// AssociationScorer's representative): a duplicate made after a kidnap sits in the kidnapped
+  /// frame and would pull the fit towards it. NaN with fewer than kMinAlignmentLandmarks.
+  PoseError mapRelativeError(const EkfSlam& map, const Eigen::Vector3d& estimate,
+                             const Eigen::Vector3d& true_pose) const;
 
   /// True positions of the static landmarks (truth id -> position), for the map error.
   void setTrueMap(std::unordered_map<LandmarkId, Eigen::Vector2d> true_map) {
@@ -174,6 +221,9 @@ class RunScorer {
   const AssociationScorer& scorer() const { return scorer_; }
 
  private:
+  /// mapRelativeError's transform; nothing with fewer than kMinAlignmentLandmarks.
+  std::optional<RigidTransform2> mapAlignment(const EkfSlam& map) const;
+
   double nees_skip_s_;
   double first_stamp_ = 0.0;
   bool have_first_ = false;
@@ -198,6 +248,14 @@ class RunScorer {
   double recovery_s_ = std::numeric_limits<double>::quiet_NaN();
   double after_sum_ = 0.0;
   std::uint64_t after_n_ = 0, relocalisations_ = 0, wrong_relocalisations_ = 0;
+  // Recovery against the map.
+  bool expect_kidnap_ = false, recovered_map_ = false, map_window_passed_ = false;
+  double last_error_map_ = std::numeric_limits<double>::quiet_NaN();
+  double error_before_kidnap_map_ = std::numeric_limits<double>::quiet_NaN();
+  double error_after_kidnap_map_ = std::numeric_limits<double>::quiet_NaN();
+  std::int64_t recovery_scans_map_ = -1;
+  double recovery_s_map_ = std::numeric_limits<double>::quiet_NaN();
+  std::uint64_t wrong_relocalisations_map_ = 0;
 };
 
 /// Feeds a simulation to a pipeline as the offline runner feeds a simulated bag: every odometry

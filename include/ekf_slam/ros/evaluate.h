@@ -68,7 +68,7 @@ struct Evaluation {
   double wall_time_s = 0.0;
 };
 
-/// Expands names and prefixes ("rrw_kidnap_*") against sim::worldNames(); throws
+/// sim::expandWorldNames (names and prefixes such as "rrw_kidnap_*"); throws
 /// std::invalid_argument listing the names when one matches nothing.
 std::vector<std::string> expandWorldNames(const std::vector<std::string>& patterns);
 

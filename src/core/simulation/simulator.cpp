@@ -409,6 +409,28 @@ std::vector<std::string> worldNames() {
   return names;
 }
 
+std::vector<std::string> expandWorldNames(const std::vector<std::string>& patterns) {
+  const std::vector<std::string> all = worldNames();
+  std::vector<std::string> out;
+  for (const std::string& p : patterns) {
+    const bool prefix = !p.empty() && p.back() == '*';
+    const std::string stem = prefix ? p.substr(0, p.size() - 1) : p;
+    std::size_t matched = 0;
+    for (const std::string& name : all) {
+      if (prefix ? name.compare(0, stem.size(), stem) == 0 : name == p) {
+        if (std::find(out.begin(), out.end(), name) == out.end()) out.push_back(name);
+        ++matched;
+      }
+    }
+    if (matched == 0) {
+      std::string names;
+      for (const auto& n : all) names += (names.empty() ? "" : ", ") + n;
+      throw std::invalid_argument("unknown world '" + p + "'; available: " + names);
+    }
+  }
+  return out;
+}
+
 World makeWorld(const std::string& name) {
   for (const auto& entry : registry()) {
     if (entry.first == name) {

@@ -177,6 +177,10 @@ struct World {
 /// sim::laserWorld), rrw_noise_1..10,
 /// rrw_kidnap_1..10, rrw_occlusion_2, 4, ..., 20.
 std::vector<std::string> worldNames();
+/// World names matching `patterns`, in registry order without repeats: an exact name, or a
+/// prefix ending in '*' ("rrw_noise_*", "*"). Throws std::invalid_argument listing the names when
+/// a pattern matches none.
+std::vector<std::string> expandWorldNames(const std::vector<std::string>& patterns);
 /// Builds a world by name; throws std::invalid_argument listing the names on an unknown one.
 World makeWorld(const std::string& name);
 

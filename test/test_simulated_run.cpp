@@ -115,7 +115,9 @@ TEST(RunScorer, ErrorsBeforeAndAfterTheKidnap) {
 // scans at 5 Hz along x; the kidnap comes before scan 5, the relocalisation at scan 7 puts the
 // pose `fix_offset` (in the map frame) from where the map says it is, and it stays there. A
 // younger duplicate of landmark 0 appears at the kidnapped pose (scan 5), as a filter makes one.
-RunMetrics driftedMapRun(const Eigen::Vector2d& fix_offset) {
+// With `rebuild`, nothing relocalises: at the kidnap the old landmarks are removed and the map
+// is rebuilt around the kidnapped pose (DJNN's exit rule), consistent with the displaced estimate.
+RunMetrics driftedMapRun(const Eigen::Vector2d& fix_offset, bool rebuild = false) {
   const std::vector<Eigen::Vector2d> landmarks = {{0, 20},   {30, 25},  {60, 18},
                                                   {10, -15}, {40, -22}, {70, -12}};
   const double yaw = 0.04;  // the drift: 0.04 rad about the origin, then (2.5, -1) m
@@ -148,7 +150,20 @@ RunMetrics driftedMapRun(const Eigen::Vector2d& fix_offset) {
         r.association.landmark[i] = truth[i];
       }
     }
-    if (k == 5) {  // the duplicate of landmark 0, made at the kidnapped pose
+    if (k == 5 && rebuild) {
+      scorer.markKidnap();
+      r.observations.resize(landmarks.size());
+      r.association.resize(landmarks.size());
+      for (std::size_t i = 0; i < landmarks.size(); ++i) {
+        map.removeLandmark(static_cast<LandmarkId>(i));
+        const Eigen::Vector2d at = landmarks[i] - Eigen::Vector2d(30.0, 0.0);
+        truth.push_back(static_cast<LandmarkId>(i));
+        r.association.decision[i] = Decision::kNew;
+        r.association.landmark[i] =
+            map.insertLandmark(drift(Eigen::Vector3d(at.x(), at.y(), 0)).head<2>(),
+                               Eigen::Matrix2d::Identity(), static_cast<LandmarkId>(200 + i));
+      }
+    } else if (k == 5) {  // the duplicate of landmark 0, made at the kidnapped pose
       scorer.markKidnap();
       truth = {0};
       r.observations.resize(1);
@@ -159,9 +174,10 @@ RunMetrics driftedMapRun(const Eigen::Vector2d& fix_offset) {
     // The truth drives along x and is kidnapped 30 m further on at scan 5.
     const Eigen::Vector3d true_pose(2.0 * k + (k >= 5 ? 30.0 : 0.0), 0.0, 0.1);
     Eigen::Vector3d estimate = drift(true_pose);
-    if (k == 5 || k == 6) estimate = drift(Eigen::Vector3d(2.0 * k, 0.0, 0.1));  // not yet found
-    if (k >= 7) estimate.head<2>() += fix_offset;
-    if (k == 7) {
+    if (k == 5 || k == 6) estimate = drift(Eigen::Vector3d(2.0 * k, 0.0, 0.1));   // not yet found
+    if (rebuild && k >= 5) estimate = drift(Eigen::Vector3d(2.0 * k, 0.0, 0.1));  // never found
+    if (!rebuild && k >= 7) estimate.head<2>() += fix_offset;
+    if (!rebuild && k == 7) {
       r.relocalised = true;
       r.relocalisation.pose = estimate;
     }
@@ -195,6 +211,16 @@ TEST(RunScorer, APoseWrongInItsMapIsNotRecovered) {
   EXPECT_EQ(m.wrong_relocalisations_map, 0u);
   // ... 3 m off: a wrong fix in its map.
   EXPECT_EQ(driftedMapRun(Eigen::Vector2d(3.0, 0.0)).wrong_relocalisations_map, 1u);
+}
+
+TEST(RunScorer, AMapRebuiltAroundTheKidnappedPoseIsNotARecovery) {
+  // The rebuilt landmarks carry the true identities and agree with the displaced estimate, so a
+  // fit on them would call the pose right; only landmarks made before the kidnap count.
+  const RunMetrics m = driftedMapRun(Eigen::Vector2d::Zero(), /*rebuild=*/true);
+  EXPECT_NEAR(m.error_before_kidnap_map_m, 0.0, 1e-9);
+  EXPECT_EQ(m.relocalisations, 0u);
+  EXPECT_EQ(m.recovery_scans_map, -1);
+  EXPECT_TRUE(std::isnan(m.error_after_kidnap_map_m));  // the old map is gone: nothing to fit
 }
 
 TEST(RunScorer, MapRelativeErrorNeedsThreeIdentifiedLandmarks) {

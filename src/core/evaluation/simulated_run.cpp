@@ -205,10 +205,14 @@ PoseError errorAfter(const RigidTransform2& align, const Eigen::Vector3d& estima
 }  // namespace
 
 std::optional<RigidTransform2> RunScorer::mapAlignment(const EkfSlam& map) const {
-  // Per static truth identity, the oldest landmark holding it (its position).
+  // Per static truth identity, the oldest landmark holding it (its position). After a kidnap only
+  // landmarks made before it count: a map rebuilt around the kidnapped pose (DJNN's exit rule
+  // removing the old one) must not make a displaced pose look recovered.
+  const bool after_kidnap = kidnapped_ || kidnap_pending_;
   std::unordered_map<LandmarkId, std::pair<LandmarkId, Eigen::Vector2d>> oldest;
   for (std::size_t k = 0; k < map.numLandmarks(); ++k) {
     const LandmarkId id = map.landmarkIds()[k];
+    if (after_kidnap && id > last_id_before_kidnap_) continue;
     LandmarkId truth = -1;
     if (!scorer_.identity(id, &truth) || true_map_.count(truth) == 0) continue;
     const Eigen::Vector2d position = map.landmark(static_cast<int>(k));
@@ -280,7 +284,12 @@ void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>&
   }
   // NaN where not measured (no map, or too few identified landmarks).
   const double in_map = align ? errorAfter(*align, estimate, *true_pose).position : nan;
-  if (!kidnapped_ && map != nullptr) last_error_map_ = in_map;
+  if (!kidnapped_ && map != nullptr) {
+    last_error_map_ = in_map;
+    // Landmark ids only grow: the newest one so far bounds the map made before the kidnap.
+    for (const LandmarkId id : map->landmarkIds())
+      last_id_before_kidnap_ = std::max(last_id_before_kidnap_, id);
+  }
   if (kidnapped_ && !recovered_map_ && in_map < kRecoveredDistance) {
     recovered_map_ = true;
     recovery_scans_map_ = static_cast<std::int64_t>(scans_ - 1 - kidnap_scan_);

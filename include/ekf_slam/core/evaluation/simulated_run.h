@@ -203,7 +203,9 @@ class RunScorer {
   /// landmarks with a static truth identity onto their true positions (setTrueMap), applied to
   /// `estimate`, compared with `true_pose`. One landmark per identity, the oldest (the
   /// AssociationScorer's representative): a duplicate made after a kidnap sits in the kidnapped
-  /// frame and would pull the fit towards it. NaN with fewer than kMinAlignmentLandmarks.
+  /// frame and would pull the fit towards it; after a kidnap, only landmarks made before it (a
+  /// map rebuilt around the kidnapped pose is not a recovery). NaN with fewer than
+  /// kMinAlignmentLandmarks.
   PoseError mapRelativeError(const EkfSlam& map, const Eigen::Vector3d& estimate,
                              const Eigen::Vector3d& true_pose) const;
 
@@ -250,6 +252,7 @@ class RunScorer {
   std::uint64_t after_n_ = 0, relocalisations_ = 0, wrong_relocalisations_ = 0;
   // Recovery against the map.
   bool expect_kidnap_ = false, recovered_map_ = false, map_window_passed_ = false;
+  LandmarkId last_id_before_kidnap_ = -1;  // the newest landmark id seen before the kidnap
   double last_error_map_ = std::numeric_limits<double>::quiet_NaN();
   double error_before_kidnap_map_ = std::numeric_limits<double>::quiet_NaN();
   double error_after_kidnap_map_ = std::numeric_limits<double>::quiet_NaN();

@@ -83,6 +83,7 @@ void DJNN::configure(const ParameterSource& params) {
   p.static_test = r.flag("static_test", def.static_test);
   p.static_probability = r.probability("static_probability", def.static_probability);
   p.static_jitter = r.nonNegative("static_jitter", def.static_jitter);
+  p.static_min_speed = r.nonNegative("static_min_speed", def.static_min_speed);
   p.bias_test = r.flag("bias_test", def.bias_test);
   p.bias_probability = r.probability("bias_probability", def.bias_probability);
   p.bias_window = r.inRange("bias_window", def.bias_window, 1.0, 1.0e6);
@@ -95,6 +96,18 @@ void DJNN::configure(const ParameterSource& params) {
   ambiguity_gate_ = chi2Quantile(p_.ambiguity_probability, 2);
   tentative_gate_ = chi2Quantile(p_.tentative_gate_probability, 2);
   static_gate_ = Chi2Table(p_.static_probability, 2 * std::max(p_.admit_evidence, 2));
+  velocity_gate_ = chi2Quantile(p_.static_probability, 2);
+  baseline_information_ = 0.0;
+  if (p_.static_min_speed > 0.0) {
+    // An object at speed v has v_hat ~ N(v, J^-1): it fails the velocity test with probability
+    // about p when v sqrt(lambda_min(J)) >= sqrt(chi2(2, p)) + z_p (z_p: the standard normal
+    // quantile, one-sided along its direction of motion).
+    const double q = p_.static_probability;
+    const double z = q >= 0.5 ? std::sqrt(chi2Quantile(2.0 * q - 1.0, 1))
+                              : -std::sqrt(chi2Quantile(1.0 - 2.0 * q, 1));
+    const double k = std::max(0.0, std::sqrt(velocity_gate_) + z) / p_.static_min_speed;
+    baseline_information_ = k * k;
+  }
   bias_gate_ = chi2Quantile(p_.bias_probability, 2);
   bias_decay_ = 1.0 - 1.0 / p_.bias_window;
   tentative_cell_ = 0.5 * (p_.sensor.max_range + p_.range_margin);
@@ -528,14 +541,53 @@ int DJNN::addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, d
   }
   Tentative& t = tentative_[slot];
   t.position = pos;
-  t.cov = cov;
-  t.evidence = bump(0.0, evidenceStep(true, cov));  // seen now
-  t.last_seen = stamp;
   t.alive = true;
+  tentative_cells_[tentativeKey(pos)].push_back(slot);
+  startTentative(slot, pos, cov, stamp);
+  return slot;
+}
+
+void DJNN::startTentative(int slot, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
+                          double stamp) {
+  Tentative& t = tentative_[slot];
+  t.cov = C;
+  t.evidence = bump(0.0, evidenceStep(true, C));  // seen now
+  t.last_seen = stamp;
   t.sightings = 1;
   t.residual = 0.0;
-  tentative_cells_[tentativeKey(pos)].push_back(slot);
-  return slot;
+  t.first_seen = stamp;
+  t.track_info.setZero();
+  t.track_vec.setZero();
+  if (p_.static_min_speed > 0.0) addToTrack(&t, z, C, stamp);
+  moveTentative(slot, z);
+}
+
+// Weighted least squares of z_i = p + (t_i - t_0) v + e_i, e_i ~ N(0, C_i), in information form.
+void DJNN::addToTrack(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
+                      double stamp) {
+  const double dt = stamp - t->first_seen;
+  const Eigen::Matrix2d W = C.inverse();
+  t->track_info.topLeftCorner<2, 2>() += W;
+  t->track_info.topRightCorner<2, 2>() += dt * W;
+  t->track_info.bottomLeftCorner<2, 2>() += dt * W;
+  t->track_info.bottomRightCorner<2, 2>() += dt * dt * W;
+  const Eigen::Vector2d wz = W * z;
+  t->track_vec.head<2>() += wz;
+  t->track_vec.tail<2>() += dt * wz;
+}
+
+bool DJNN::trackVelocity(const Tentative& t, Eigen::Matrix2d* J, double* statistic) {
+  // Position marginalised out (Schur complement): J = L_vv - L_vp L_pp^-1 L_pv, and
+  // v_hat = J^-1 b with b = y_v - L_vp L_pp^-1 y_p, so v_hat^T J v_hat = b^T J^-1 b.
+  const Eigen::Matrix2d Lpp_inv = t.track_info.topLeftCorner<2, 2>().inverse();
+  const Eigen::Matrix2d Lvp = t.track_info.bottomLeftCorner<2, 2>();
+  *J = t.track_info.bottomRightCorner<2, 2>() - Lvp * Lpp_inv * Lvp.transpose();
+  const Eigen::Vector2d b = t.track_vec.tail<2>() - Lvp * Lpp_inv * t.track_vec.head<2>();
+  const double det = J->determinant();
+  // All sightings at one stamp (or one): no velocity information yet.
+  if (!(det > 1e-12 * J->squaredNorm()) || !(J->trace() > 0.0)) return false;
+  *statistic = b.dot(J->inverse() * b);
+  return std::isfinite(*statistic);
 }
 
 void DJNN::dropTentative(int slot) {
@@ -572,6 +624,17 @@ void DJNN::moveTentative(int slot, const Eigen::Vector2d& pos) {
     if (v.empty()) tentative_cells_.erase(it);
   }
   tentative_cells_[to].push_back(slot);
+}
+
+bool DJNN::longEnough(int slot) const {
+  if (!p_.static_test || p_.static_min_speed <= 0.0) return true;
+  Eigen::Matrix2d J;
+  double v2 = 0.0;
+  if (!trackVelocity(tentative_[slot], &J, &v2)) return false;
+  // Least eigenvalue of the symmetric 2 x 2 J: the direction the velocity is least known in.
+  const double half_trace = 0.5 * J.trace();
+  const double gap = std::sqrt(std::max(0.0, half_trace * half_trace - J.determinant()));
+  return half_trace - gap >= baseline_information_;
 }
 
 void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* result) {
@@ -637,14 +700,18 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
       const Eigen::Vector2d e = z - t.position;
       t.residual += e.dot((t.cov + C).inverse() * e);
       ++t.sightings;
-      if (t.residual > static_gate_(2 * (t.sightings - 1))) {
+      bool moving = t.residual > static_gate_(2 * (t.sightings - 1));
+      if (p_.static_min_speed > 0.0 && !moving) {
+        // Against a constant velocity (2 dof) rather than any scatter (2 (k - 1) dof): the
+        // stronger test for an object moving steadily.
+        addToTrack(&t, z, C, stamp);
+        Eigen::Matrix2d J;
+        double v2 = 0.0;
+        moving = trackVelocity(t, &J, &v2) && v2 > velocity_gate_;
+      }
+      if (moving) {
         // Not one static point (a slow mover): its history is void; restart from this sighting.
-        t.cov = C;
-        t.evidence = bump(0.0, evidenceStep(true, C));
-        t.last_seen = stamp;
-        t.sightings = 1;
-        t.residual = 0.0;
-        moveTentative(slot, z);
+        startTentative(slot, z, C, stamp);
         ++stats_.static_restarts;
         continue;
       }
@@ -689,7 +756,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     // T >= admit_evidence already implies as many sightings since the last restart.
     const bool enough_sightings =
         !p_.static_test || tentative_[slot].sightings >= p_.admit_evidence;
-    if (t >= p_.admit_evidence - kEvidenceEps && enough_sightings) {
+    if (t >= p_.admit_evidence - kEvidenceEps && enough_sightings && longEnough(slot)) {
       result->decision[i] = Decision::kNew;
       pending_new_[i] = t;
       dropTentative(slot);  // now the pipeline's landmark; its counter starts in landmarkAdded()

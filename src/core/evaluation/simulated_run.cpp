@@ -141,6 +141,9 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
     // Sparse detections let movers pass close to landmarks between sightings: a landmark with two
     // bias windows of unbiased pairings stays when the bias test fires (docs/djnn.md).
     p["bias_keep_pairings"] = "10";
+    // Other robots among sparse detections: admission needs sightings spanning the time in which
+    // the slowest of them shows its motion (docs/djnn.md, "A minimum speed for the static test").
+    if (world.movers.count > 0) p["static_min_speed"] = text(world.movers.min_speed);
   }
   const double R = coveringRange(world);
   if (R < 15.0) p["range_margin"] = text(0.2 * R);

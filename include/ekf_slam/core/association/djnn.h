@@ -76,6 +76,12 @@ class DJNN : public DataAssociation {
     bool static_test = true;
     double static_probability = 0.9;
     double static_jitter = 0.0;
+    /// Slowest speed [m/s] of a moving object that must be kept out of the map; 0 = off. With
+    /// it, the sightings of a tentative feature are also fitted with a constant-velocity track:
+    /// its velocity must pass v^T Sigma_v^-1 v <= chi2(2, static_probability) (else the feature
+    /// restarts), and admission waits until Sigma_v is small enough that an object at this speed
+    /// would fail that test with probability static_probability (the sightings span enough time).
+    double static_min_speed = 0.0;
     /// Innovation-bias test of map landmarks: a discounted sum a = sum lambda^k G v of the world-
     /// frame innovations (lambda = 1 - 1 / bias_window) with covariance B = sum lambda^2k G S G^T;
     /// a^T B^-1 a > chi2(2, bias_probability) after bias_min_pairings pairings marks a landmark
@@ -116,6 +122,11 @@ class DJNN : public DataAssociation {
     bool alive = false;
     int sightings = 0;      ///< fused into position since the last (re)start
     double residual = 0.0;  ///< sum of normalised residuals of the sightings (static test)
+    /// Constant-velocity fit of the sightings since the last (re)start (static_min_speed > 0):
+    /// information matrix and vector of (position at first_seen, velocity).
+    double first_seen = 0.0;
+    Eigen::Matrix4d track_info = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d track_vec = Eigen::Vector4d::Zero();
   };
   /// Innovation-bias state of a map landmark (bias test).
   struct Bias {
@@ -175,6 +186,18 @@ class DJNN : public DataAssociation {
   CellKey tentativeKey(const Eigen::Vector2d& p) const;
   void queryTentatives(const Eigen::Vector2d& center, double radius, std::vector<int>* out) const;
   double bump(double evidence, double r) const;
+  /// Starts the tentative feature in `slot` afresh from one sighting (position z, observation
+  /// covariance C, at `stamp`): its first sighting, or the restart after a failed static test.
+  void startTentative(int slot, const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp);
+  /// Adds a sighting to the constant-velocity fit of `t` (static_min_speed > 0).
+  static void addToTrack(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
+                         double stamp);
+  /// The fit's velocity information J (inverse covariance of the velocity, position marginalised)
+  /// and the velocity test statistic v^T J v; false when the velocity is not determined yet.
+  static bool trackVelocity(const Tentative& t, Eigen::Matrix2d* J, double* statistic);
+  /// The sightings of tentative feature `slot` span enough time for the velocity test to see an
+  /// object at static_min_speed (always true when that is off).
+  bool longEnough(int slot) const;
 
   Params p_;
   double gate_ = 0.0;
@@ -184,6 +207,8 @@ class DJNN : public DataAssociation {
   double tentative_cell_ = 10.0;
   double penalty_radial_ = 0.0, penalty_lateral_ = 0.0;
   Chi2Table static_gate_;
+  double velocity_gate_ = 0.0;         ///< chi2(2, static_probability)
+  double baseline_information_ = 0.0;  ///< least velocity information for admission [s^2/m^2]
   double bias_gate_ = 0.0, bias_decay_ = 0.8;
 
   // Per-scan scratch, reused between calls to avoid heap churn.

@@ -4,6 +4,7 @@
 // to end (runSimulation, as `evaluate --relocaliser` runs it), and a kidnap only a probe can see.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
 #include <random>
 #include <string>
@@ -27,7 +28,8 @@ using reloc_test::World;
 class Drive {
  public:
   explicit Drive(bool relocaliser = true, const Eigen::Vector3d& start = {20, 30, 0.1},
-                 std::shared_ptr<Relocaliser> custom = nullptr, int confirmations = 0)
+                 std::shared_ptr<Relocaliser> custom = nullptr, int confirmations = 0,
+                 int held_fixes = 1, double confirm_probability = 0.0)
       : world_(reloc_test::randomMap(250, 120.0, 3.0, 21)), truth_(start) {
     config_.initial_pose = start;
     config_.initial_pose_sigma = Eigen::Vector3d(0.01, 0.01, 0.001);
@@ -36,6 +38,8 @@ class Drive {
     config_.max_observation_range = 15.0;
     config_.lost_field_of_view = 2.0 * M_PI;
     config_.relocalisation_confirmations = confirmations;
+    config_.relocalisation_held_fixes = held_fixes;
+    config_.relocalisation_confirm_probability = confirm_probability;
     config_.twist.additive = Eigen::Vector3d(0.005, 0.005, 0.0005).asDiagonal();
     djnn_ = std::make_shared<DJNN>();
     MapParameterSource djnn_params;
@@ -228,11 +232,13 @@ class NeverFound : public Relocaliser {
   int calls = 0;
 };
 
-// Found at every call: a pose 30 m off at the first, the truth after (a chance alignment, then
-// the right place).
+// Found at every call: a pose 30 m off at the calls listed (default the first), the truth at
+// the others (chance alignments, and the right place).
 class WrongThenRight : public Relocaliser {
  public:
-  explicit WrongThenRight(const Eigen::Vector3d* truth) : truth_(truth) {}
+  explicit WrongThenRight(const Eigen::Vector3d* truth, std::vector<int> wrong = {0},
+                          const Eigen::Vector3d& offset = {30.0, -20.0, 1.0})
+      : truth_(truth), wrong_(std::move(wrong)), offset_(offset) {}
   void configure(const ParameterSource&) override {}
   std::string name() const override { return "WrongThenRight"; }
   void setMap(const std::vector<MapLandmark>&) override {}
@@ -241,7 +247,8 @@ class WrongThenRight : public Relocaliser {
     RelocalisationResult r;
     r.landmark.assign(obs.size(), kNoLandmark);
     r.status = RelocalisationStatus::kFound;
-    r.pose = *truth_ + (calls++ == 0 ? Eigen::Vector3d(30.0, -20.0, 1.0) : Eigen::Vector3d::Zero());
+    const bool wrong = std::find(wrong_.begin(), wrong_.end(), calls++) != wrong_.end();
+    r.pose = *truth_ + (wrong ? offset_ : Eigen::Vector3d::Zero());
     r.covariance = 1e-4 * Eigen::Matrix3d::Identity();
     return r;
   }
@@ -249,6 +256,8 @@ class WrongThenRight : public Relocaliser {
 
  private:
   const Eigen::Vector3d* truth_;
+  std::vector<int> wrong_;
+  Eigen::Vector3d offset_;
 };
 
 TEST(Recovery, AFixIsAppliedOnlyOnceTheNextAgrees) {
@@ -276,6 +285,49 @@ TEST(Recovery, AFixIsAppliedOnlyOnceTheNextAgrees) {
     EXPECT_EQ(reloc->calls, 3);
     EXPECT_EQ(d.pipeline().counters().relocalisations_unconfirmed, 2u);
     EXPECT_EQ(d.pipeline().counters().relocalisations, 1u);
+  }
+}
+
+// The right place, a chance alignment elsewhere, the right place again: with one held fix the
+// chance alignment replaced the first, and the third only starts again; with two the third
+// confirms the first (moved by the odometry) past the chance alignment.
+TEST(Recovery, ALaterFixConfirmsAnEarlierHeldOneWithSeveralHeld) {
+  for (const int held : {1, 2}) {
+    SCOPED_TRACE("relocalisation_held_fixes " + std::to_string(held));
+    Drive d(true, {20, 30, 0.1}, nullptr, /*confirmations=*/1, held);
+    auto reloc = std::make_shared<WrongThenRight>(&d.truth(), std::vector<int>{1});
+    d.pipeline().setRelocaliser(reloc);
+    d.run(20);
+    ASSERT_TRUE(d.pipeline().requestRelocalisation());
+    EXPECT_FALSE(d.run(1).relocalised);  // right: held
+    EXPECT_FALSE(d.run(1).relocalised);  // the chance alignment 36 m away: held as well
+    const ScanReport third = d.run(1);   // right again
+    EXPECT_EQ(third.relocalised, held == 2) << third.lost_reason;
+    EXPECT_EQ(d.pipeline().lost(), held == 1);
+    if (held == 2) {
+      EXPECT_LT(d.error(), 0.5);
+      EXPECT_EQ(d.pipeline().counters().relocalisations, 1u);
+    }
+  }
+}
+
+// relocalisation_confirm_probability: two fixes 1 m apart, each to 1 cm, with exact odometry
+// between them agree within the fixed 2 m, not by the chi2 test on their covariances.
+TEST(Recovery, TheChi2ComparisonUsesTheFixesCovariances) {
+  for (const double probability : {0.0, 0.999}) {
+    SCOPED_TRACE("relocalisation_confirm_probability " + std::to_string(probability));
+    Drive d(true, {20, 30, 0.1}, nullptr, /*confirmations=*/1, /*held_fixes=*/1, probability);
+    auto reloc = std::make_shared<WrongThenRight>(&d.truth(), std::vector<int>{1},
+                                                  Eigen::Vector3d(1.0, 0.0, 0.0));
+    d.pipeline().setRelocaliser(reloc);
+    d.run(20);
+    ASSERT_TRUE(d.pipeline().requestRelocalisation());
+    EXPECT_FALSE(d.run(1).relocalised);                   // the truth: held
+    EXPECT_EQ(d.run(1).relocalised, probability == 0.0);  // 1 m off
+    if (probability == 0.0) continue;
+    EXPECT_FALSE(d.run(1).relocalised);  // the truth, 1 m from the held fix: held instead
+    EXPECT_TRUE(d.run(1).relocalised);   // and confirmed by the next
+    EXPECT_LT(d.error(), 0.5);
   }
 }
 

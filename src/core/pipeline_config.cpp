@@ -112,6 +112,12 @@ void PipelineConfig::validate() const {
   count(lost_rejected_scans, "lost_rejected_scans");
   count(lost_max_scans, "lost_max_scans");
   count(relocalisation_confirmations, "relocalisation_confirmations");
+  requireParameter(
+      relocalisation_confirm_probability >= 0.0 && relocalisation_confirm_probability < 1.0,
+      "relocalisation_confirm_probability", "must lie in [0, 1)",
+      relocalisation_confirm_probability);
+  requireParameter(relocalisation_held_fixes >= 1, "relocalisation_held_fixes",
+                   "must be at least 1", relocalisation_held_fixes);
   requireParameter(relocalisation_window_scans >= 1, "relocalisation_window_scans",
                    "must be at least 1", relocalisation_window_scans);
   requireParameter(relocalisation_confirm_distance > 0.0, "relocalisation_confirm_distance",
@@ -233,6 +239,10 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.cekf_area_slack = r.nonNegative("cekf_area_slack", c.cekf_area_slack);
   c.relocalisation_confirmations =
       r.integer("relocalisation_confirmations", c.relocalisation_confirmations, 0, 1000);
+  c.relocalisation_confirm_probability = r.inRange(
+      "relocalisation_confirm_probability", c.relocalisation_confirm_probability, 0.0, 0.999999);
+  c.relocalisation_held_fixes =
+      r.integer("relocalisation_held_fixes", c.relocalisation_held_fixes, 1, 100);
   c.relocalisation_window_scans =
       r.integer("relocalisation_window_scans", c.relocalisation_window_scans, 1, 100);
   c.relocalisation_confirm_distance =

@@ -136,7 +136,8 @@ std::vector<MapLandmark> SlamPipeline::mapLandmarks() const {
 void SlamPipeline::enterLost(bool pose_unknown) {
   lost_ = true;
   pose_unknown_ = pose_unknown;
-  lost_scans_ = fix_count_ = 0;
+  lost_scans_ = 0;
+  held_.clear();
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   window_.clear();                       // scans from before are at a pose now in doubt
   relocaliser_->setMap(mapLandmarks());  // frozen until found
@@ -378,7 +379,8 @@ void SlamPipeline::relocaliseScan(ScanReport* report) {
     report->lost_reason = "no relocalisation in " + std::to_string(lost_scans_) +
                           " scans: tracking resumes from the estimate";
     lost_ = false;
-    unpaired_streak_ = nis_streak_ = fix_count_ = 0;
+    unpaired_streak_ = nis_streak_ = 0;
+    held_.clear();
   }
 }
 
@@ -389,7 +391,7 @@ bool SlamPipeline::applyIfConfirmed(const RelocalisationResult& r, ScanReport* r
   }
   ++counters_.relocalisations_unconfirmed;
   report->lost_reason += (report->lost_reason.empty() ? "" : "; ") + std::string("held: fix ") +
-                         std::to_string(fix_count_) + " of " +
+                         std::to_string(held_.empty() ? 0 : held_.back().count) + " of " +
                          std::to_string(config_.relocalisation_confirmations + 1) +
                          " that must agree";
   return false;
@@ -398,26 +400,54 @@ bool SlamPipeline::applyIfConfirmed(const RelocalisationResult& r, ScanReport* r
 bool SlamPipeline::confirmedFix(const RelocalisationResult& r, std::uint32_t first_scan,
                                 std::uint32_t last_scan) {
   const Eigen::Vector3d estimate = pose();
-  if (fix_count_ > 0) {
-    // The held fix moved by the odometry since: the estimate integrates it while lost.
-    const Eigen::Vector3d moved =
-        composePose(fix_pose_, composePose(inversePose(fix_estimate_), estimate));
-    const bool agrees =
-        (moved.head<2>() - r.pose.head<2>()).norm() <= config_.relocalisation_confirm_distance &&
-        std::abs(wrapAngle(moved.z() - r.pose.z())) <= config_.relocalisation_confirm_angle;
+  // The held fix that this one confirms: the most confirmed (then the newest) that agrees.
+  HeldFix* match = nullptr;
+  bool repeats = false;
+  for (HeldFix& h : held_) {
+    if (!agrees(h, r)) continue;
     // A fix from scans the held one used repeats its data, and would repeat a chance alignment:
-    // it neither confirms the held fix nor replaces it.
-    if (agrees && first_scan <= fix_last_scan_) return false;
-    fix_count_ = agrees ? fix_count_ + 1 : 1;
-  } else {
-    fix_count_ = 1;
+    // it does not confirm that one.
+    if (first_scan <= h.last_scan) {
+      repeats = true;
+    } else if (match == nullptr || h.count >= match->count) {
+      match = &h;
+    }
   }
-  fix_pose_ = r.pose;
-  fix_estimate_ = estimate;
-  fix_last_scan_ = last_scan;
-  if (fix_count_ <= config_.relocalisation_confirmations) return false;
-  fix_count_ = 0;
+  // Agreeing only with fixes whose scans it shares: neither a confirmation nor a new place.
+  if (match == nullptr && repeats) return false;
+  HeldFix fix{r.pose,    estimate,     match ? match->count + 1 : 1,
+              last_scan, r.covariance, Eigen::Matrix3d::Zero()};
+  if (match) held_.erase(held_.begin() + (match - held_.data()));
+  if (static_cast<int>(held_.size()) >= config_.relocalisation_held_fixes)
+    held_.erase(held_.begin());
+  held_.push_back(fix);
+  if (fix.count <= config_.relocalisation_confirmations) return false;
+  held_.clear();
   return true;
+}
+
+bool SlamPipeline::agrees(const HeldFix& h, const RelocalisationResult& r) const {
+  // The held fix moved by the odometry since: the estimate integrates it while lost.
+  const Eigen::Vector3d u = composePose(inversePose(h.estimate), pose());
+  const Eigen::Vector3d moved = composePose(h.pose, u);
+  Eigen::Vector3d d = moved - r.pose;
+  d.z() = wrapAngle(d.z());
+  const double p = config_.relocalisation_confirm_probability;
+  if (p <= 0.0) {
+    return d.head<2>().norm() <= config_.relocalisation_confirm_distance &&
+           std::abs(d.z()) <= config_.relocalisation_confirm_angle;
+  }
+  // moved = h.pose o u: d/d h.pose = [I, S R u_xy; 0 1] (S the 90 degree turn); d/du = rot(h.pose),
+  // and u's covariance is Q turned into the held estimate's frame.
+  const Eigen::Vector2d lever = rotation2d(h.pose.z()) * u.head<2>();
+  Eigen::Matrix3d Ja = Eigen::Matrix3d::Identity();
+  Ja(0, 2) = -lever.y();
+  Ja(1, 2) = lever.x();
+  Eigen::Matrix3d Jr = Eigen::Matrix3d::Identity();
+  Jr.topLeftCorner<2, 2>() = rotation2d(h.pose.z() - h.estimate.z());
+  const Eigen::Matrix3d S =
+      Ja * h.covariance * Ja.transpose() + Jr * h.Q * Jr.transpose() + r.covariance;
+  return d.dot(S.ldlt().solve(d)) <= chi2Quantile(p, 3);
 }
 
 void SlamPipeline::applyRelocalisation(const RelocalisationResult& r, ScanReport* report) {
@@ -469,6 +499,7 @@ Eigen::Matrix3d SlamPipeline::poseCovariance() const {
 void SlamPipeline::applyPendingMotion() const {
   if (pending_steps_ == 0) return;
   if (lost_ && !window_.empty()) window_.addMotion(pending_.F, pending_.Q);
+  for (HeldFix& h : held_) h.Q = pending_.F * h.Q * pending_.F.transpose() + pending_.Q;
   // Steps are checked when composed, so this cannot fail.
   if (cekf_) {
     cekf_->predict(pending_);

@@ -133,6 +133,14 @@ struct PipelineConfig {
   int relocalisation_confirmations = 0;
   double relocalisation_confirm_distance = 2.0;
   double relocalisation_confirm_angle = 0.2;
+  /// How many unconfirmed fixes are held at once: a new fix confirms whichever agrees with it
+  /// (the oldest is dropped when full), so a chance alignment between two right fixes no longer
+  /// replaces the first. 1: only the latest.
+  int relocalisation_held_fixes = 1;
+  /// In (0, 1): a fix agrees with a held one by a chi2(3) test at this probability on their
+  /// difference, with the two fixes' covariances and the odometry's between them, instead of the
+  /// fixed distance / angle (a long turn then tolerates more, a short gap less). 0: fixed.
+  double relocalisation_confirm_probability = 0.0;
   /// While lost, the relocaliser sees the observations of the last this many scans (with
   /// observations, all since going lost), carried into the current frame by the odometry with its
   /// covariance (docs/relocalisation.md, "A window of scans"); a fix confirms a held one only if
@@ -451,11 +459,19 @@ class SlamPipeline {
   bool lost_ = false;
   int lost_scans_ = 0;  // relocalisation attempts since lost
   // A fix awaiting confirmation (relocalisation_confirmations): its pose, the estimate at that
-  // scan, and how many agreeing fixes it has had.
-  Eigen::Vector3d fix_pose_ = Eigen::Vector3d::Zero();
-  Eigen::Vector3d fix_estimate_ = Eigen::Vector3d::Zero();
-  int fix_count_ = 0;
-  std::uint32_t fix_last_scan_ = 0;  // the newest scan the held fix used
+  // scan, how many agreeing fixes it has had, and the newest scan it used.
+  struct HeldFix {
+    Eigen::Vector3d pose;
+    Eigen::Vector3d estimate;
+    int count;
+    std::uint32_t last_scan;
+    Eigen::Matrix3d covariance;  // the fix's
+    Eigen::Matrix3d Q;           // the current estimate's given `estimate` (odometry, map frame)
+  };
+  // Oldest first, at most relocalisation_held_fixes (mutable: the odometry grows their Q).
+  mutable std::vector<HeldFix> held_;
+  // Whether fix r agrees with held fix h moved by the odometry to the current estimate.
+  bool agrees(const HeldFix& h, const RelocalisationResult& r) const;
   bool confirmedFix(const RelocalisationResult& r, std::uint32_t first_scan,
                     std::uint32_t last_scan);
   // Applies a found fix of the last callRelocaliser() once confirmed (true); else holds it,

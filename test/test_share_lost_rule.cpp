@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "ekf_slam/core/parameters.h"
-#include "ekf_slam/core/relocalisation/relocaliser.h"
+#include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "ekf_slam/core/slam_pipeline.h"
 
 namespace ekf_slam {
@@ -50,19 +50,6 @@ class Scripted : public DataAssociation {
   std::vector<LandmarkId> ids_;
 };
 
-class NeverFound : public Relocaliser {
- public:
-  void configure(const ParameterSource&) override {}
-  std::string name() const override { return "NeverFound"; }
-  void setMap(const std::vector<MapLandmark>&) override {}
-  RelocalisationResult relocalise(const std::vector<Observation>& obs, const Eigen::Vector3d&,
-                                  const PosePrior*) override {
-    RelocalisationResult r;
-    r.landmark.assign(obs.size(), kNoLandmark);
-    return r;
-  }
-};
-
 // A stationary vehicle at the origin that sees kLandmarks trees 8 m ahead, exactly.
 class Scene {
  public:
@@ -71,7 +58,7 @@ class Scene {
     config.lost_share_window = share_window;
     associator_ = std::make_shared<Scripted>();
     pipeline_ = std::make_unique<SlamPipeline>(config, associator_);
-    pipeline_->setRelocaliser(std::make_shared<NeverFound>());
+    pipeline_->setRelocaliser(std::make_shared<FGCBB>());
   }
   /// `scans` scans, each pairing `paired` observations (< 0: all); true if it went lost.
   bool run(int scans, int paired) {

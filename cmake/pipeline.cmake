@@ -12,7 +12,7 @@ install(TARGETS bench_pipeline RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINAT
 
 if(CATKIN_ENABLE_TESTING)
   foreach(t test_slam_pipeline test_scan_geometry test_input_sequencer test_pipeline_config test_odometry_correction
-            test_recovery test_recovery_window test_refused_lost_rule)
+            test_recovery test_recovery_window test_refused_lost_rule test_share_lost_rule)
     catkin_add_gtest(${t} ${PROJECT_SOURCE_DIR}/test/${t}.cpp)
     target_include_directories(${t} PRIVATE ${PROJECT_SOURCE_DIR}/test)
     target_link_libraries(${t} ekf_slam_evaluation)  # some use simulated worlds

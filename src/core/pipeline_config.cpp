@@ -110,6 +110,9 @@ void PipelineConfig::validate() const {
                    "lost_field_of_view", "must lie in (0, 2 pi]", lost_field_of_view);
   count(lost_nis_scans, "lost_nis_scans");
   count(lost_rejected_scans, "lost_rejected_scans");
+  count(lost_share_window, "lost_share_window");
+  requireParameter(lost_established_share >= 0.0 && lost_established_share <= 1.0,
+                   "lost_established_share", "must lie in [0, 1]", lost_established_share);
   count(lost_max_scans, "lost_max_scans");
   count(relocalisation_confirmations, "relocalisation_confirmations");
   requireParameter(
@@ -229,6 +232,9 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_field_of_view = r.inRange("lost_field_of_view", c.lost_field_of_view, 1e-6, 2.0 * M_PI);
   c.lost_nis_scans = r.integer("lost_nis_scans", c.lost_nis_scans, 0, 100000);
   c.lost_rejected_scans = r.integer("lost_rejected_scans", c.lost_rejected_scans, 0, 100000);
+  c.lost_share_window = r.integer("lost_share_window", c.lost_share_window, 0, 100000);
+  c.lost_established_share =
+      r.inRange("lost_established_share", c.lost_established_share, 0.0, 1.0);
   c.lost_max_scans = r.integer("lost_max_scans", c.lost_max_scans, 0, 100000);
   c.lost_nis_probability = r.probability("lost_nis_probability", c.lost_nis_probability);
   c.filter = r.text("filter", c.filter, {"ekf", "cekf"});

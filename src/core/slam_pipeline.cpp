@@ -96,6 +96,7 @@ void SlamPipeline::reset() {
   pending_steps_ = 0;
   lost_ = false;
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
+  share_window_.clear();
   ++counters_.resets;
 }
 
@@ -139,6 +140,7 @@ void SlamPipeline::enterLost(bool pose_unknown) {
   lost_scans_ = 0;
   held_.clear();
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
+  share_window_.clear();
   window_.clear();                       // scans from before are at a pose now in doubt
   relocaliser_->setMap(mapLandmarks());  // frozen until found
 }
@@ -179,15 +181,42 @@ void SlamPipeline::checkLost(ScanReport* report) {
   if (unpaired && !share_rule) report->landmarks_expected = landmarksInView();
   const bool rule1 = unpaired && report->landmarks_expected >= config_.lost_min_expected;
   const bool rule2 = config_.lost_nis_scans > 0 && nis_streak_ >= config_.lost_nis_scans;
-  if (rule1 || rule2) {
-    report->lost_reason =
-        rule1 ? (share_rule ? "under " + std::to_string(config_.lost_min_paired_share) +
-                                  " of the established landmarks in view paired for "
-                            : std::string("no established landmark paired for ")) +
-                    std::to_string(unpaired_streak_) + " scans, " +
-                    std::to_string(report->landmarks_expected) + " in view"
-              : "NIS above chi2(2k, " + std::to_string(config_.lost_nis_probability) + ") for " +
-                    std::to_string(nis_streak_) + " scans";
+  // Rule 4: over the last lost_share_window scans with established landmarks in view, too few
+  // observations explained by them. Chance pairings (one or two a scan among many landmarks in
+  // view) restart rule 1's count but hardly raise this share (docs/relocalisation.md).
+  bool rule4 = false;
+  if (config_.lost_share_window > 0 && n >= config_.lost_min_observations) {
+    if (!share_rule && !unpaired) report->landmarks_expected = landmarksInView();
+    if (report->landmarks_expected >= config_.lost_min_expected) {
+      share_window_.emplace_back(established, n);
+      if (share_window_.size() > static_cast<std::size_t>(config_.lost_share_window))
+        share_window_.pop_front();
+      int window_established = 0, window_observations = 0;
+      for (const auto& [e, o] : share_window_) {
+        window_established += e;
+        window_observations += o;
+      }
+      rule4 = share_window_.size() == static_cast<std::size_t>(config_.lost_share_window) &&
+              window_established < config_.lost_established_share * window_observations;
+      if (rule4) {
+        report->lost_reason = std::to_string(window_established) + " of " +
+                              std::to_string(window_observations) +
+                              " observations paired with established landmarks in " +
+                              std::to_string(config_.lost_share_window) + " scans";
+      }
+    }
+  }
+  if (rule1 || rule2 || rule4) {
+    if (rule1 || rule2) {
+      report->lost_reason =
+          rule1 ? (share_rule ? "under " + std::to_string(config_.lost_min_paired_share) +
+                                    " of the established landmarks in view paired for "
+                              : std::string("no established landmark paired for ")) +
+                      std::to_string(unpaired_streak_) + " scans, " +
+                      std::to_string(report->landmarks_expected) + " in view"
+                : "NIS above chi2(2k, " + std::to_string(config_.lost_nis_probability) + ") for " +
+                      std::to_string(nis_streak_) + " scans";
+    }
     discardRecent(report);
     ++counters_.lost_events;
     report->became_lost = true;

@@ -26,6 +26,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -123,6 +124,13 @@ struct PipelineConfig {
   /// it is applied. Scans of the streak without such an answer create no landmark. Only
   /// associators that fill gate_refused (RRWSC) can trigger it. 0 disables the rule.
   int lost_rejected_scans = 1;
+  /// Lost rule 4: over the last lost_share_window scans with >= lost_min_observations
+  /// observations and >= lost_min_expected established landmarks in view, fewer than
+  /// lost_established_share of their observations paired with established landmarks. A tracking
+  /// filter explains most of what it sees in mapped ground by the map; a kidnapped one pairs one
+  /// or two a scan by chance (which restarts rule 1's count). 0 disables the rule.
+  int lost_share_window = 0;
+  double lost_established_share = 0.15;
   /// Lost this many scans without a relocalisation: tracking resumes from the dead-reckoned
   /// estimate (the map unfreezes). 0: stay lost until found (localisation in a saved map).
   int lost_max_scans = 50;
@@ -490,6 +498,7 @@ class SlamPipeline {
   int unpaired_streak_ = 0;
   int nis_streak_ = 0;
   int refused_streak_ = 0;
+  std::deque<std::pair<int, int>> share_window_;  // rule 4: (established paired, observations)
   Chi2Table nis_chi2_;
 };
 

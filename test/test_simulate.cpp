@@ -372,6 +372,28 @@ TEST(SimulateYaml, NumbersReadBackAsNumbersInBothYamlDialects) {
   EXPECT_EQ(root["DJNN"].size(), 0u);
 }
 
+// config/arena.yaml and config/fiducials.yaml are what `simulate` writes for their world: a key
+// added to a world's parameters and not to the shipped file would give roslaunch users another
+// filter than `evaluate` scores. Comment lines (the header) may differ.
+TEST(SimulateYaml, ShippedWorldConfigsAreWhatSimulateWrites) {
+  const auto without_comments = [](std::istream& in) {
+    std::string line, body;
+    while (std::getline(in, line)) {
+      if (!line.empty() && line[0] != '#') body += line + "\n";
+    }
+    return body;
+  };
+  for (const std::string name : {"arena", "fiducials"}) {
+    const std::string path = std::string(EKF_SLAM_SOURCE_DIR) + "/config/" + name + ".yaml";
+    std::ifstream shipped(path);
+    ASSERT_TRUE(shipped) << path;
+    std::istringstream written(worldParamsYaml(sim::makeWorld(name), {}));
+    EXPECT_EQ(without_comments(shipped), without_comments(written))
+        << path << " is out of date: regenerate its body with `rosrun ekf_slam simulate --world "
+        << name << " --out /tmp/" << name << ".bag` (keep the header comment)";
+  }
+}
+
 TEST(Simulate, SameSeedSameBagOtherSeedOtherBag) {
   TempDir dir("ekf_slam_simulate");
   ASSERT_FALSE(dir.path().empty());

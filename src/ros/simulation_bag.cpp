@@ -233,6 +233,17 @@ std::string simulationParamsYaml(
   return y.str();
 }
 
+std::string worldParamsYaml(const sim::World& world,
+                            const std::vector<std::string>& header_comment) {
+  std::map<std::string, std::map<std::string, std::string>> assoc;
+  for (const char* a : kAssociators) {
+    auto p = sim::associatorParametersFor(world, a);
+    if (!p.empty() || std::string(a) == "DJNN") assoc[a] = std::move(p);
+  }
+  return simulationParamsYaml(world.name, sim::pipelineParametersFor(world), assoc, header_comment,
+                              sim::extractorFor(world));
+}
+
 SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std::ostream& log) {
   if (options.out_path.empty()) throw std::invalid_argument("no output bag path given (--out)");
   sim::World world = sim::makeWorld(options.world);  // throws listing the names
@@ -430,11 +441,6 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
   if (options.write_params) {
     s.params_path =
         options.params_path.empty() ? defaultParamsPath(options.out_path) : options.params_path;
-    std::map<std::string, std::map<std::string, std::string>> assoc;
-    for (const char* a : kAssociators) {
-      auto p = sim::associatorParametersFor(world, a);
-      if (!p.empty() || std::string(a) == "DJNN") assoc[a] = std::move(p);
-    }
     std::vector<std::string> comment = {
         "ekf_slam parameters for a simulated bag: world " + world.name + ", seed " +
             std::to_string(seed) +
@@ -448,8 +454,7 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
         "  rosrun ekf_slam ekf_slam_offline --bag BAG --params THIS_FILE --out DIR",
         "  roslaunch ekf_slam simulation.launch bag:=BAG params:=THIS_FILE"};
     std::ofstream out(s.params_path);
-    out << simulationParamsYaml(world.name, sim::pipelineParametersFor(world), assoc, comment,
-                                sim::extractorFor(world));
+    out << worldParamsYaml(world, comment);
     out.close();
     if (!out) throw std::runtime_error(s.params_path + ": cannot write the parameter file");
   }

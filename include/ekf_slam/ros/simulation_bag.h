@@ -75,6 +75,11 @@ std::string simulationParamsYaml(
     const std::map<std::string, std::map<std::string, std::string>>& associators,
     const std::vector<std::string>& header_comment, const sim::ExtractorSetup& extractor = {});
 
+/// simulationParamsYaml for `world` with its own pipeline, associator and extractor parameters:
+/// what `simulate` writes beside the bag (and config/<world>.yaml holds for the shipped worlds).
+std::string worldParamsYaml(const sim::World& world,
+                            const std::vector<std::string>& header_comment);
+
 /// Simulates and writes the bag (and the YAML unless !write_params). Throws
 /// std::invalid_argument for an unknown world or invalid overrides and std::runtime_error when a
 /// file cannot be written (a partial bag is removed). Notes go to `log`.

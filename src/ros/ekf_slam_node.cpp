@@ -593,11 +593,10 @@ void EkfSlamNode::publish(const ScanReport& report) {
     pose_pub_.publish(msg);
   }
   if (associations_pub_.getNumSubscribers() > 0) {
-    associations_pub_.publish(toAssociationStats(
-        report, config_.associator, pipeline_->ekf().numLandmarks(), config_.map_frame, stamp));
+    associations_pub_.publish(toAssociationStats(report, config_.associator,
+                                                 pipeline_->activeEkf().numLandmarks(),
+                                                 config_.map_frame, stamp));
   }
-  // Latched: a late subscriber (rviz started mid-run) must get today's map, not none.
-  map_pub_.publish(toLandmarkArray(*pipeline_, config_.map_frame, stamp));
   const std::vector<std::string> names = pipeline_->odometryCorrection().names();
   if (!names.empty() && correction_pub_.getNumSubscribers() > 0) {
     // Odometry correction states (AEKF): [estimates..., std devs...]; the layout names them.
@@ -610,7 +609,7 @@ void EkfSlamNode::publish(const ScanReport& report) {
     msg.layout.dim[1].stride = names.size();
     for (const std::string& n : names)
       msg.layout.dim[1].label += (msg.layout.dim[1].label.empty() ? "" : ",") + n;
-    const EkfSlam& ekf = pipeline_->ekf();
+    const EkfSlam& ekf = pipeline_->activeEkf();  // per scan: no cekf global update
     const Eigen::Vector2d sd = ekf.correctionCovariance().diagonal().cwiseSqrt();
     for (std::size_t i = 0; i < names.size(); ++i) msg.data.push_back(ekf.correction()(i));
     for (std::size_t i = 0; i < names.size(); ++i) msg.data.push_back(sd(i));
@@ -706,6 +705,10 @@ void EkfSlamNode::onTransformTimer(const ros::WallTimerEvent&) {
 void EkfSlamNode::publishMapOutputs() {
   if (!visualization_dirty_) return;
   visualization_dirty_ = false;
+  // Latched: a late subscriber (rviz started mid-run) gets today's map, not none. At the
+  // visualisation rate, not per scan: the whole map is O(n) to copy, and with filter cekf reading
+  // it forces the global update the compressed filter exists to defer.
+  map_pub_.publish(toLandmarkArray(*pipeline_, config_.map_frame, last_stamp_));
   path_pub_.publish(path_);
   markers_pub_.publish(markers_.build(*pipeline_, config_.map_frame, last_stamp_));
 }
@@ -840,7 +843,6 @@ void EkfSlamNode::resetAll(const std::string& why) {
   have_map_odom_ = false;
   last_tf_stamp_ = ros::Time();
   tf_buffer_.clear();
-  map_pub_.publish(toLandmarkArray(*pipeline_, config_.map_frame, last_stamp_));
   visualization_dirty_ = true;
   publishMapOutputs();
 }
@@ -911,7 +913,6 @@ bool EkfSlamNode::loadMapService(LoadMap::Request& req, LoadMap::Response& res) 
         "loaded " + std::to_string(pipeline_->ekf().numLandmarks()) + " landmarks from " + path;
     ROS_INFO("ekf_slam: %s", res.message.c_str());
     markers_.reset();
-    map_pub_.publish(toLandmarkArray(*pipeline_, config_.map_frame, last_stamp_));
     visualization_dirty_ = true;
     publishMapOutputs();
   } catch (const std::exception& e) {

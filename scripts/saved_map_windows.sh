@@ -4,7 +4,9 @@
 # alone with --load-map map.txt --unknown-pose (starts lost, relocalises globally). Per window:
 # scans until the first fix, the fix's distance to the full run's pose at that stamp (the issue's
 # reference), the largest distance after it, and the same two against the window tracked from a
-# known start in the saved map. Prints a table and a summary line; writes OUT/windows.csv.
+# known start in the saved map, and the distance to a map fit (the pose that best fits the
+# known-start window's pairings with the saved map at the first well-fitting scan from the fix on).
+# Prints a table and a summary line; writes OUT/windows.csv.
 #   scripts/saved_map_windows.sh [OUT]       default OUT: $EKF_SLAM_BUILD/saved_map_windows
 # Env: WINDOW (60 s), STEP (120 s between window starts), RELOCALISER (ekf_slam/FGCBB),
 #      PARAMS (config/victoria_park.yaml; the windows' parameters, the full run's are always that),
@@ -54,7 +56,7 @@ PY
 # run's pose at the window's start, 1 m / 0.05 rad of doubt), so in the saved map's frame. The
 # full run's pose at a time came before the loop closures that later moved the map.
 /usr/bin/python3 - "$out" "$window_params" <<'PY'
-import bisect, csv, re, sys
+import bisect, csv, math, re, sys
 import rosbag
 out, params = sys.argv[1], sys.argv[2]
 rows = list(csv.DictReader(open(f"{out}/full/trajectory.csv")))
@@ -63,6 +65,12 @@ text = open(params).read()
 for s in open(f"{out}/starts.txt").read().split():
     with rosbag.Bag(f"{out}/window_{s}.bag") as b:  # its first message after the static tf
         first = next(t.to_sec() for topic, _, t in b.read_messages() if topic != "/tf_static")
+        # The sensor offset, for the map fit below (planar: x, y, yaw of base_link -> laser).
+        for _, m, _ in b.read_messages(topics=["/tf_static"]):
+            for x in m.transforms:
+                tr, q = x.transform.translation, x.transform.rotation
+                yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+                open(f"{out}/sensor_offset.txt", "w").write(f"{tr.x} {tr.y} {yaw}")
     r = rows[min(bisect.bisect_left(stamps, first), len(rows) - 1)]
     t = text
     for key, value in (("initial_pose_x", r["x"]), ("initial_pose_y", r["y"]), ("initial_pose_yaw", r["yaw"]),
@@ -95,6 +103,41 @@ def at(s, p, t):
 def full_at(t):
     return at(fs, fp, t)
 starts = open(f"{out}/starts.txt").read().split()
+saved = {}
+for line in open(f"{out}/full/map.txt"):
+    f = line.split()
+    if len(f) >= 3 and not line.startswith(("#", "ekf_slam_map")):
+        saved[int(f[0])] = (float(f[1]), float(f[2]))
+ox, oy, oyaw = (float(v) for v in open(f"{out}/sensor_offset.txt").read().split())
+scan_of = {}
+def map_fits(s):
+    """(stamp, fitted base_link pose) per scan of the known-start window with a good fit."""
+    scans = {}
+    scan_of[s] = {}
+    for a in csv.DictReader(open(f"{out}/k_{s}/associations.csv")):
+        t = float(a["stamp"])
+        scan_of[s][t] = int(a["scan"])
+        lm = int(a["landmark_id"]) if a["landmark_id"] not in ("", None) else -1
+        if a["decision"] != "paired" or lm not in saved:
+            continue
+        rg, b = float(a["range"]), float(a["bearing"]) + oyaw
+        scans.setdefault(t, []).append(((ox + rg * math.cos(b), oy + rg * math.sin(b)), saved[lm]))
+    for t in sorted(scans):
+        pq = scans[t]
+        if len(pq) < 3:
+            continue
+        n = len(pq)
+        pcx, pcy = sum(p[0] for p, _ in pq) / n, sum(p[1] for p, _ in pq) / n
+        qcx, qcy = sum(q[0] for _, q in pq) / n, sum(q[1] for _, q in pq) / n
+        sxx = sum((p[0] - pcx) * (q[0] - qcx) + (p[1] - pcy) * (q[1] - qcy) for p, q in pq)
+        sxy = sum((p[0] - pcx) * (q[1] - qcy) - (p[1] - pcy) * (q[0] - qcx) for p, q in pq)
+        th = math.atan2(sxy, sxx)
+        c, si = math.cos(th), math.sin(th)
+        x, y = qcx - (c * pcx - si * pcy), qcy - (si * pcx + c * pcy)
+        rms = math.sqrt(sum((c * p[0] - si * p[1] + x - q[0]) ** 2 + (si * p[0] + c * p[1] + y - q[1]) ** 2
+                            for p, q in pq) / n)
+        if rms < 0.5:
+            yield t, (x, y, th)
 rows = []
 for s in starts:
     try:
@@ -124,30 +167,50 @@ for s in starts:
             r["known_max_error_after_m"] = max(kerr) if kerr else float("nan")
         except OSError:
             r["known_fix_error_m"] = r["known_max_error_after_m"] = float("nan")
+        # A third reference, free of any filter's prior: the pose that best fits, at one scan, the
+        # known-start window's pairings with the saved map (closed-form 2D alignment), at the
+        # first scan from the fix on where at least 3 pairings fit within 0.5 m RMS (the known
+        # start's first scans can pair wrongly while its prior holds it near the full run's pose).
+        r["map_fit_scan"], r["map_fit_error_m"] = "", float("nan")
+        try:
+            tp_at = dict(zip(ts, tp))
+            for t, fitted in map_fits(s):
+                if t >= stamp - 1e-9 and t in tp_at:
+                    p = tp_at[t]
+                    r["map_fit_scan"] = scan_of[s][t]
+                    r["map_fit_error_m"] = math.hypot(p[0] - fitted[0], p[1] - fitted[1])
+                    break
+        except OSError:
+            pass
     rows.append(r)
 with open(f"{out}/windows.csv", "w") as f:
     keys = ["start", "scans", "fixed", "fix_scan", "fix_after_s", "fix_error_m", "max_error_after_m", "wrong",
-            "known_fix_error_m", "known_max_error_after_m"]
+            "known_fix_error_m", "known_max_error_after_m", "map_fit_scan", "map_fit_error_m"]
     w = csv.DictWriter(f, keys, extrasaction="ignore"); w.writeheader(); w.writerows(rows)
 print("| window start [s] | scans | fixed at scan | after [s] | error at fix [m] | max error after [m] "
-      "| known start: at fix [m] | known start: max after [m] |")
-print("|---|---|---|---|---|---|---|---|")
+      "| known start: at fix [m] | known start: max after [m] | map fit: scan | map fit: error [m] |")
+print("|---|---|---|---|---|---|---|---|---|---|")
 for r in rows:
     if r.get("fixed"):
         print(f"| {r['start']} | {r['scans']} | {r['fix_scan']} | {r['fix_after_s']:.1f} | {r['fix_error_m']:.2f} "
-              f"| {r['max_error_after_m']:.2f} | {r['known_fix_error_m']:.2f} | {r['known_max_error_after_m']:.2f} |")
+              f"| {r['max_error_after_m']:.2f} | {r['known_fix_error_m']:.2f} | {r['known_max_error_after_m']:.2f} "
+              f"| {r['map_fit_scan']} | {r['map_fit_error_m']:.2f} |")
     else:
-        print(f"| {r['start']} | {r.get('scans', '-')} | never | - | - | - | - | - |")
+        print(f"| {r['start']} | {r.get('scans', '-')} | never | - | - | - | - | - | - | - |")
 n = len(rows)
 good = sum(1 for r in rows if r.get("fixed") and not r["wrong"] and r["fix_scan"] <= 10 and r["fix_error_m"] <= 2.0)
 within10 = sum(1 for r in rows if r.get("fixed") and r["fix_scan"] <= 10)
 within2 = sum(1 for r in rows if r.get("fixed") and r["fix_error_m"] <= 2.0)
 known2 = sum(1 for r in rows if r.get("fixed") and r["known_fix_error_m"] <= 2.0)
 known_wrong = sum(1 for r in rows if r.get("wrong") and not r["known_fix_error_m"] <= 2.0)
+fit2 = sum(1 for r in rows if r.get("fixed") and r["map_fit_error_m"] <= 2.0)
+fit_wrong = sum(1 for r in rows if r.get("wrong") and not r["known_fix_error_m"] <= 2.0
+                and not r["map_fit_error_m"] <= 2.0)
 wrong = sum(1 for r in rows if r.get("wrong"))
 print(f"\n{n} windows: {good} within 2 m after at most 10 scans ({100.0 * good / max(n, 1):.0f} %), "
       f"{sum(1 for r in rows if r.get('fixed'))} fixed at all, {wrong} wrong fixes; "
       f"{within10} fixed within 10 scans, {within2} within 2 m of the full run at the fix, "
       f"{known2} within 2 m of the known-start window; "
-      f"{known_wrong} of the wrong fixes also more than 2 m from the known-start window")
+      f"{known_wrong} of the wrong fixes also more than 2 m from the known-start window; "
+      f"{fit2} within 2 m of the map fit, {fit_wrong} more than 2 m from all three references")
 PY

@@ -353,6 +353,46 @@ TEST_P(Relocalisers, OwnObservationNoiseTightensTheConstraints) {
   expectNotWrong(b, truth);
 }
 
+// A saved map's covariances are absolute: far from where mapping began each tree's is metres wide
+// (the vehicle's pose uncertainty then, shared by its neighbours), while their relative geometry is
+// exact. Taken as independent, those covariances blunt the binary and joint constraints until the
+// search cannot tell the place; landmark_sigma_cap restores them. Set after setMap, too.
+TEST_P(Relocalisers, LandmarkSigmaCapRestoresConstraintsBluntedByAbsoluteCovariances) {
+  World w = reloc_test::randomMap(200, 120.0, 3.0, 11);
+  for (MapLandmark& l : w.map) l.covariance = Eigen::Vector2d(2.5 * 2.5, 1.5 * 1.5).asDiagonal();
+  auto loose = make(GetParam());
+  loose->setMap(w.map);
+  auto capped = make(GetParam());
+  capped->setMap(w.map);
+  MapParameterSource p;
+  p.set("sensor_range", "30");
+  p.set("landmark_sigma_cap", "0.3");
+  capped->configure(p);
+  EXPECT_DOUBLE_EQ(capped->params().landmark_sigma_cap, 0.3);
+  EXPECT_DOUBLE_EQ(loose->params().landmark_sigma_cap, 0.0);  // default: the map's covariances
+  int loose_found = 0, capped_found = 0, tried = 0;
+  for (int k = 0; k < 10; ++k) {
+    const Eigen::Vector3d truth(30.0 + 6.0 * k, 25.0 + 7.0 * k, -3.0 + 0.6 * k);
+    std::vector<LandmarkId> ids;
+    const auto obs = w.observe(truth, 15.0, &ids, true, 100 + k);
+    if (obs.size() < 6) continue;
+    ++tried;
+    SCOPED_TRACE("pose " + std::to_string(k) + ", " + std::to_string(obs.size()) + " obs");
+    const auto a = loose->relocalise(obs, w.sensor_offset, nullptr);
+    expectNotWrong(a, truth);
+    loose_found += a.status == RelocalisationStatus::kFound;
+    const auto b = capped->relocalise(obs, w.sensor_offset, nullptr);
+    expectNotWrong(b, truth);
+    capped_found += b.status == RelocalisationStatus::kFound;
+  }
+  EXPECT_GE(tried, 6);
+  EXPECT_GE(capped_found, 6);                // as with the map's own small covariances
+  EXPECT_LT(loose_found, capped_found - 3);  // measured: none found without the cap
+  MapParameterSource bad;
+  bad.set("landmark_sigma_cap", "-1");
+  EXPECT_THROW(capped->configure(bad), std::exception);
+}
+
 TEST(FGCBB, DefaultsAreThePapers) {
   FGCBB f;
   EXPECT_EQ(f.name(), "FGCBB");

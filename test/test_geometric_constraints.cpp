@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/relocalisation/geometric_constraints.h"
 #include "relocalisation_fixtures.h"
 
@@ -67,6 +68,23 @@ TEST(BinaryConstraint, ComparesPairwiseDistancesWithTheirCovariances) {
   const Eigen::Matrix2d along = Eigen::Vector2d(1.0, 0.01).asDiagonal();
   EXPECT_GT(binaryStatistic(a, across, b, across, {0, 0}, C, {11, 0}, C), 6.63);
   EXPECT_LT(binaryStatistic(a, along, b, along, {0, 0}, C, {11, 0}, C), 6.63);
+}
+
+TEST(CapCovariance, CapsTheEigenvaluesAndKeepsTheAxes) {
+  // 3 m along 30 deg, 0.1 m across it.
+  const Eigen::Matrix2d Rot = Eigen::Rotation2Dd(deg2rad(30.0)).toRotationMatrix();
+  const Eigen::Matrix2d C = Rot * Eigen::Vector2d(9.0, 0.01).asDiagonal() * Rot.transpose();
+  const Eigen::Matrix2d c = capCovariance(C, 0.5);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(c);
+  EXPECT_NEAR(es.eigenvalues()(0), 0.01, 1e-12);  // the small one is kept
+  EXPECT_NEAR(es.eigenvalues()(1), 0.25, 1e-12);  // the large one capped at 0.5^2
+  const Eigen::Vector2d axis = es.eigenvectors().col(1);
+  EXPECT_NEAR(std::abs(axis.dot(Rot.col(0))), 1.0, 1e-9);  // along the same axis
+  EXPECT_TRUE(capCovariance(C, 0.0).isApprox(C));          // 0: unchanged
+  EXPECT_TRUE(capCovariance(C, 5.0).isApprox(C));          // below the cap: unchanged
+  Eigen::Matrix2d bad = C;
+  bad(0, 1) = kNaN;
+  EXPECT_FALSE(capCovariance(bad, 0.5).allFinite());  // left for MapPairTable to skip
 }
 
 TEST(MapPairTable, NeighboursAreExactlyTheMapPairsCloserThanTheRadius) {

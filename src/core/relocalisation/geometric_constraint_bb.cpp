@@ -44,6 +44,7 @@ void GeometricConstraintBB::configure(const ParameterSource& source) {
   p.descriptor_sigma = r.positive("descriptor_sigma", d.descriptor_sigma);
   p.range_sigma = r.nonNegative("range_sigma", d.range_sigma);
   p.bearing_sigma = r.nonNegative("bearing_sigma", d.bearing_sigma);
+  p.landmark_sigma_cap = r.nonNegative("landmark_sigma_cap", d.landmark_sigma_cap);
   p.binary_probability = r.probability("binary_probability", d.binary_probability);
   p.joint_probability = r.probability("joint_probability", d.joint_probability);
   p.prior_probability = r.probability("prior_probability", d.prior_probability);
@@ -69,15 +70,20 @@ void GeometricConstraintBB::configure(const ParameterSource& source) {
   binary_gate_ = chi2Quantile(p.binary_probability, 1);
   prior_gate_ = chi2Quantile(p.prior_probability, 2);
   joint_chi2_ = Chi2Table(p.joint_probability, 64);
-  // The map table depends on the locality radius.
-  if (!map_.landmarks().empty() && map_.radius() != localityRange()) {
-    const std::vector<MapLandmark> copy = map_.landmarks();
-    map_.build(copy, localityRange());
-  }
+  // The map table depends on the locality radius and the covariance cap.
+  if (!given_map_.empty()) buildMap();
 }
 
 void GeometricConstraintBB::setMap(const std::vector<MapLandmark>& map) {
-  map_.build(map, localityRange());
+  given_map_ = map;
+  buildMap();
+}
+
+void GeometricConstraintBB::buildMap() {
+  std::vector<MapLandmark> capped = given_map_;
+  for (MapLandmark& l : capped)
+    l.covariance = capCovariance(l.covariance, params_.landmark_sigma_cap);
+  map_.build(capped, localityRange());
 }
 
 double GeometricConstraintBB::localityRange() const { return params_.sensor_range; }

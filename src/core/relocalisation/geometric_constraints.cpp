@@ -206,4 +206,11 @@ PoseFit fitPose(const std::vector<PointPairing>& pairings, int iterations) {
   return fit;
 }
 
+Eigen::Matrix2d capCovariance(const Eigen::Matrix2d& cov, double sigma) {
+  if (sigma <= 0.0 || !cov.allFinite()) return cov;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
+  const Eigen::Vector2d d = eig.eigenvalues().cwiseMin(sigma * sigma);
+  return eig.eigenvectors() * d.asDiagonal() * eig.eigenvectors().transpose();
+}
+
 }  // namespace ekf_slam

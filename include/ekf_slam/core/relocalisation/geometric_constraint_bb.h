@@ -45,6 +45,11 @@
 //                                observation's own R (see docs/relocalisation.md: a filter's R
 //                                may be inflated, which blunts the binary constraint)
 //   bearing_sigma       [0]      bearing noise likewise [rad]; 0: the observation's own R
+//   landmark_sigma_cap  [0]      a map landmark's covariance is capped at this std dev for the
+//                                constraints [m]; 0: as given. A saved map's covariances are
+//                                absolute (mostly the vehicle's pose uncertainty when it mapped
+//                                them, shared by neighbours), but the constraints compare
+//                                neighbours, whose relative error is far smaller
 //   binary_probability  [0.99]   binary gate chi2(1, p)
 //   joint_probability   [0.95]   joint compatibility chi2(2k - 3, p)
 //   prior_probability   [0.999]  prior gate chi2(2, p)
@@ -83,6 +88,7 @@ struct GeometricConstraintParams {
   double descriptor_sigma = 0.1;
   double range_sigma = 0.0;
   double bearing_sigma = 0.0;
+  double landmark_sigma_cap = 0.0;
   double binary_probability = 0.99;
   double joint_probability = 0.95;
   double prior_probability = 0.999;
@@ -145,6 +151,8 @@ class GeometricConstraintBB : public Relocaliser {
   /// Steps 2-5 on points_ and views_.
   RelocalisationResult solve(const PosePrior* prior, RelocalisationResult result);
   void makeGroups();
+  /// map_ from given_map_ with the current parameters.
+  void buildMap();
   void candidatesFor(const PosePrior* prior);
   void searchGroup(const std::vector<int>& group);
   void search(int level);
@@ -167,6 +175,7 @@ class GeometricConstraintBB : public Relocaliser {
 
   GeometricConstraintParams defaults_;
   GeometricConstraintParams params_;
+  std::vector<MapLandmark> given_map_;  // as setMap got it (map_ holds it capped)
   MapPairTable map_;
   Chi2Table joint_chi2_;
   double unary_gate_ = 0.0, binary_gate_ = 0.0, prior_gate_ = 0.0;

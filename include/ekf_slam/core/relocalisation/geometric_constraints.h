@@ -75,6 +75,9 @@ class MapPairTable {
   double max_variance_ = 0.0;
 };
 
+/// `cov` with its eigenvalues capped at sigma^2 (sigma <= 0: unchanged).
+Eigen::Matrix2d capCovariance(const Eigen::Matrix2d& cov, double sigma);
+
 /// A pairing of an observed point with a map landmark.
 struct PointPairing {
   const ObservedPoint* obs;

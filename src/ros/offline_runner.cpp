@@ -317,6 +317,20 @@ struct PoseRow {
   Eigen::Vector2d correction;  // odometry correction estimates (first correctionDim() used)
   Eigen::Vector2d correction_sd;
 };
+// Relocalised: the rows of the scans processed while lost take the poses re-derived from the fix
+// (ScanReport::lost_path, oldest first); the relocalised scan's row is the last one.
+void applyLostPath(const std::vector<LostPathPose>& path, const RangeBearingModel& model,
+                   std::vector<PoseRow>* poses, std::vector<StampedPoint>* track) {
+  std::size_t i = poses->size() - 1;
+  for (auto p = path.rbegin(); p != path.rend(); ++p) {
+    while (i > 0 && (*poses)[i - 1].stamp > p->stamp) --i;
+    if (i == 0 || (*poses)[i - 1].stamp != p->stamp) continue;
+    --i;
+    (*poses)[i].pose = p->pose;
+    (*track)[i].position = model.sensorPose(p->pose).head<2>();
+  }
+}
+
 // One associations.csv row.
 struct AssociationRow {
   std::uint32_t scan;
@@ -483,6 +497,9 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   update_us.reserve(num_scans);
   std::vector<StampedPoint> laser_track;
   laser_track.reserve(num_scans);
+  // The sensor track as estimated at each scan, before a relocalisation re-derived the lost ones.
+  std::vector<StampedPoint> online_track;
+  online_track.reserve(num_scans);
   // Output rows are kept in memory and written after the loop, so that the wall time measures
   // the SLAM processing alone.
   std::vector<PoseRow> poses;
@@ -561,6 +578,9 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     poses.push_back({r.stamp, x, P.diagonal(), filter.correction(),
                      filter.correctionCovariance().diagonal().cwiseSqrt()});
     laser_track.push_back({r.stamp, pipeline.observationModel().sensorPose(x).head<2>()});
+    online_track.push_back(laser_track.back());
+    if (r.relocalised && !r.lost_path.empty())
+      applyLostPath(r.lost_path, pipeline.observationModel(), &poses, &laser_track);
     Eigen::Vector3d true_pose;
     const bool have_pose = score && truePoseAt(bag.ground_truth, r.stamp, &true_pose);
     std::vector<LandmarkId> scan_truth;
@@ -789,10 +809,13 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   }
 
   // --- GPS -------------------------------------------------------------------------------------
-  TrajectoryError gps_error, gps_clean_error;
+  TrajectoryError gps_error, gps_clean_error, gps_online_error;
   std::vector<bool> gps_faulty;
   if (!bag.gps.empty()) {
     gps_error = compareTrajectories(laser_track, bag.gps);
+    gps_online_error = pipeline.counters().lost_path_poses > 0
+                           ? compareTrajectories(online_track, bag.gps)
+                           : gps_error;
     // The same without the fixes the GPS track itself shows faulty (judged from the GPS and the
     // odometry only: trajectory_metrics.h, faultyGpsFixes).
     std::vector<StampedPoint> gps = bag.gps;
@@ -879,6 +902,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   }
   if (!bag.gps.empty()) {
     j["gps_rmse_m"] = number(gps_error.rmse_aligned);
+    j["gps_rmse_online_m"] = number(gps_online_error.rmse_aligned);  // lost path not re-derived
     j["gps_rmse_clean_m"] = number(gps_clean_error.rmse_aligned);
     j["gps_faulty_fixes"] = std::count(gps_faulty.begin(), gps_faulty.end(), true);
     j["gps_median_error_clean_m"] = number(gps_clean_error.median_aligned);
@@ -930,6 +954,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                    {"relocalisations_ambiguous", k.relocalisations_ambiguous},
                    {"relocalisations_not_found", k.relocalisations_not_found},
                    {"relocalisations_unconfirmed", k.relocalisations_unconfirmed},
+                   {"lost_path_poses", k.lost_path_poses},
                    {"discarded_landmarks", k.discarded_landmarks}};
   j["relocaliser"] = relocaliser_short;
   j["lost_at_end"] = pipeline.lost();

@@ -391,6 +391,18 @@ TEST(Recovery, TheLostPathIsReDerivedFromTheFix) {
   EXPECT_TRUE(d.run(1).lost_path.empty());  // tracking: nothing to re-derive
 }
 
+// The caller's trajectory rows take the lost path by stamp (within 1 us); others stay.
+TEST(Recovery, ApplyLostPathReplacesTheRowsOfTheLostScans) {
+  const std::vector<double> stamps{1.0, 2.0, 3.0000004, 4.0, 5.0};  // 5.0: the fix's row
+  std::vector<double> x(stamps.size(), 0.0);
+  const std::vector<LostPathPose> path{
+      {7, 0.5, {9, 0, 0}}, {8, 3.0, {3, 0, 0}}, {9, 4.0, {4, 0, 0}}};
+  applyLostPath(
+      path, stamps.size() - 1, [&](std::size_t i) { return stamps[i]; },
+      [&](std::size_t i, const Eigen::Vector3d& p) { x[i] = p.x(); });
+  EXPECT_EQ(x, (std::vector<double>{0, 0, 3, 4, 0}));
+}
+
 TEST(Recovery, SavedMapWithUnknownPoseStartsLostAndFindsItself) {
   test_files::TempDir dir;
   const std::string path = (dir.path() / "map.txt").string();

@@ -317,20 +317,6 @@ struct PoseRow {
   Eigen::Vector2d correction;  // odometry correction estimates (first correctionDim() used)
   Eigen::Vector2d correction_sd;
 };
-// Relocalised: the rows of the scans processed while lost take the poses re-derived from the fix
-// (ScanReport::lost_path, oldest first); the relocalised scan's row is the last one.
-void applyLostPath(const std::vector<LostPathPose>& path, const RangeBearingModel& model,
-                   std::vector<PoseRow>* poses, std::vector<StampedPoint>* track) {
-  std::size_t i = poses->size() - 1;
-  for (auto p = path.rbegin(); p != path.rend(); ++p) {
-    while (i > 0 && (*poses)[i - 1].stamp > p->stamp) --i;
-    if (i == 0 || (*poses)[i - 1].stamp != p->stamp) continue;
-    --i;
-    (*poses)[i].pose = p->pose;
-    (*track)[i].position = model.sensorPose(p->pose).head<2>();
-  }
-}
-
 // One associations.csv row.
 struct AssociationRow {
   std::uint32_t scan;
@@ -579,8 +565,13 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                      filter.correctionCovariance().diagonal().cwiseSqrt()});
     laser_track.push_back({r.stamp, pipeline.observationModel().sensorPose(x).head<2>()});
     online_track.push_back(laser_track.back());
-    if (r.relocalised && !r.lost_path.empty())
-      applyLostPath(r.lost_path, pipeline.observationModel(), &poses, &laser_track);
+    // Relocalised: the rows of the scans processed while lost take their re-derived poses.
+    applyLostPath(
+        r.lost_path, poses.size() - 1, [&poses](std::size_t i) { return poses[i].stamp; },
+        [&](std::size_t i, const Eigen::Vector3d& p) {
+          poses[i].pose = p;
+          laser_track[i].position = pipeline.observationModel().sensorPose(p).head<2>();
+        });
     Eigen::Vector3d true_pose;
     const bool have_pose = score && truePoseAt(bag.ground_truth, r.stamp, &true_pose);
     std::vector<LandmarkId> scan_truth;

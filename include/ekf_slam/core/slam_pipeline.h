@@ -199,6 +199,21 @@ struct LostPathPose {
   Eigen::Vector3d pose = Eigen::Vector3d::Zero();
 };
 
+/// Applies a ScanReport::lost_path to a trajectory kept by the caller: rows [0, end) in stamp
+/// order, `stamp(i)` the stamp of row i, `set(i, pose)` replaces its pose. A row is matched
+/// within 1 us (stamps may have gone through ros::Time); rows without a lost pose are left alone.
+template <class Stamp, class Set>
+void applyLostPath(const std::vector<LostPathPose>& path, std::size_t end, Stamp stamp, Set set) {
+  constexpr double kTolerance = 1e-6;
+  std::size_t i = end;
+  for (auto p = path.rbegin(); p != path.rend(); ++p) {
+    while (i > 0 && stamp(i - 1) > p->stamp + kTolerance) --i;
+    if (i == 0 || stamp(i - 1) < p->stamp - kTolerance) continue;
+    --i;
+    set(i, p->pose);
+  }
+}
+
 /// What happened in one scan.
 struct ScanReport {
   bool late = false;  ///< stamp was older than the filter: used time()

@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -96,6 +98,32 @@ TEST(OfflineRecovery, InjectedKidnapIsRecovered) {
   EXPECT_LE(scan, 310);  // within 2 s at 5 Hz
   // The run ends where the run without the kidnap ends.
   EXPECT_LT(finalDistance(j, plain), 1.0);
+  // The scans processed while lost are written with the poses re-derived from the fix: where the
+  // run without the kidnap had them, not 36 m off.
+  EXPECT_GE(j["counters"]["lost_path_poses"].get<int>(), 1);
+  const std::size_t at = log.str().find("(stamp ", log.str().find("lost at scan"));
+  ASSERT_NE(at, std::string::npos) << log.str();
+  const double lost_stamp = std::stod(log.str().substr(at + 7));
+  const double fix_stamp = j["relocalisation_events"][0]["stamp"].get<double>();
+  const auto rows = [](const std::string& dir) {
+    std::ifstream in(dir + "/trajectory.csv");
+    std::string line;
+    std::getline(in, line);
+    std::map<double, Eigen::Vector2d> out;
+    while (std::getline(in, line)) {
+      double t = 0.0, x = 0.0, y = 0.0;
+      if (std::sscanf(line.c_str(), "%lf,%lf,%lf", &t, &x, &y) == 3) out[t] = {x, y};
+    }
+    return out;
+  };
+  const auto kidnapped = rows(o.out_dir), reference = rows(bag.options("plain").out_dir);
+  int compared = 0;
+  for (const auto& [t, p] : kidnapped) {
+    if (t < lost_stamp || t > fix_stamp || !reference.count(t)) continue;
+    EXPECT_LT((p - reference.at(t)).norm(), 1.0) << "stamp " << t;
+    ++compared;
+  }
+  EXPECT_GE(compared, 2);
   EXPECT_EQ(j["truth"]["duplicates"].get<int>(), 0);
 }
 

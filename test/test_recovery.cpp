@@ -359,6 +359,50 @@ TEST(Recovery, MapIsFrozenWhileLost) {
   EXPECT_FALSE(d.pipeline().lost());
 }
 
+// While lost the estimate is dead-reckoned from the wrong pose; once relocalised, each lost
+// scan's pose is carried back from the fix by the odometry between them: where the vehicle was.
+TEST(Recovery, TheLostPathIsReDerivedFromTheFix) {
+  auto never = std::make_shared<NeverFound>();
+  Drive d(true, {20, 30, 0.1}, never);
+  d.run(30);
+  d.pipeline().injectPoseJump({8.0, -5.0, 1.5});  // the estimate jumps, not the vehicle
+  ASSERT_TRUE(d.pipeline().requestRelocalisation());
+  std::vector<Eigen::Vector3d> truths;
+  std::vector<std::uint32_t> scans;
+  for (int k = 0; k < 15; ++k) {
+    const ScanReport r = d.run(1);
+    ASSERT_TRUE(r.lost);
+    EXPECT_TRUE(r.lost_path.empty());
+    EXPECT_GT(d.headingError(), 1.0);  // dead-reckoned from the jumped pose
+    truths.push_back(d.truth());
+    scans.push_back(r.scan);
+  }
+  d.pipeline().setRelocaliser(
+      std::make_shared<WrongThenRight>(&d.truth(), std::vector<int>{}));  // the truth
+  const ScanReport fixed = d.run(1);
+  ASSERT_TRUE(fixed.relocalised);
+  ASSERT_EQ(fixed.lost_path.size(), truths.size());
+  for (std::size_t k = 0; k < truths.size(); ++k) {
+    EXPECT_EQ(fixed.lost_path[k].scan, scans[k]);
+    EXPECT_LT((fixed.lost_path[k].pose.head<2>() - truths[k].head<2>()).norm(), 0.05) << k;
+    EXPECT_LT(std::abs(wrapAngle(fixed.lost_path[k].pose.z() - truths[k].z())), 1e-3) << k;
+  }
+  EXPECT_EQ(d.pipeline().counters().lost_path_poses, truths.size());
+  EXPECT_TRUE(d.run(1).lost_path.empty());  // tracking: nothing to re-derive
+}
+
+// The caller's trajectory rows take the lost path by stamp (within 1 us); others stay.
+TEST(Recovery, ApplyLostPathReplacesTheRowsOfTheLostScans) {
+  const std::vector<double> stamps{1.0, 2.0, 3.0000004, 4.0, 5.0};  // 5.0: the fix's row
+  std::vector<double> x(stamps.size(), 0.0);
+  const std::vector<LostPathPose> path{
+      {7, 0.5, {9, 0, 0}}, {8, 3.0, {3, 0, 0}}, {9, 4.0, {4, 0, 0}}};
+  applyLostPath(
+      path, stamps.size() - 1, [&](std::size_t i) { return stamps[i]; },
+      [&](std::size_t i, const Eigen::Vector3d& p) { x[i] = p.x(); });
+  EXPECT_EQ(x, (std::vector<double>{0, 0, 3, 4, 0}));
+}
+
 TEST(Recovery, SavedMapWithUnknownPoseStartsLostAndFindsItself) {
   test_files::TempDir dir;
   const std::string path = (dir.path() / "map.txt").string();

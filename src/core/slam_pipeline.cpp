@@ -45,6 +45,9 @@ constexpr const char* kMapHeader = "ekf_slam_map 1";
 // with the pairings that follows re-derives the pose, its covariance and its cross-covariance
 // with the map from the map and the scan alone (docs/relocalisation.md).
 constexpr double kRelocalisedPriorInflation = 1e4;
+// The lost path kept for re-deriving (ScanReport::lost_path): the newest this many scans, about
+// half an hour of Victoria Park's; the older ones are forgotten, not corrected.
+constexpr std::size_t kMaxLostPath = 10000;
 // A probe's pose is a kidnap when the filter's estimate does not cover it: its difference from
 // the estimate, with both covariances, beyond chi2(3) at this probability.
 constexpr double kProbeProbability = 0.999;
@@ -141,7 +144,8 @@ void SlamPipeline::enterLost(bool pose_unknown) {
   held_.clear();
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   share_window_.clear();
-  window_.clear();                       // scans from before are at a pose now in doubt
+  window_.clear();  // scans from before are at a pose now in doubt
+  lost_path_.clear();
   relocaliser_->setMap(mapLandmarks());  // frozen until found
 }
 
@@ -410,7 +414,15 @@ void SlamPipeline::relocaliseScan(ScanReport* report) {
     lost_ = false;
     unpaired_streak_ = nis_streak_ = 0;
     held_.clear();
+    lost_path_.clear();  // tracking resumes from the dead-reckoned path: nothing to correct
   }
+  rememberLostPose(*report);
+}
+
+void SlamPipeline::rememberLostPose(const ScanReport& report) {
+  if (!lost_) return;
+  if (lost_path_.size() >= kMaxLostPath) lost_path_.pop_front();
+  lost_path_.push_back({report.scan, report.stamp, pose()});
 }
 
 bool SlamPipeline::applyIfConfirmed(const RelocalisationResult& r, ScanReport* report) {
@@ -488,6 +500,7 @@ void SlamPipeline::applyRelocalisation(const RelocalisationResult& r, ScanReport
   // The old pose is forgotten; the update with the pairings re-derives it, correlated with the
   // map as it should be (kRelocalisedPriorInflation). filter cekf: the whole state first.
   if (cekf_) cekf_->flush();
+  const Eigen::Vector3d dead_reckoned = pose();
   ekf_.replacePose(r.pose, kRelocalisedPriorInflation * r.covariance);
   carried_ = std::move(window_pairings_);  // a window's older pairings join the update
   window_pairings_.clear();
@@ -497,6 +510,18 @@ void SlamPipeline::applyRelocalisation(const RelocalisationResult& r, ScanReport
     if (cekf_) cekf_->flush();
     ekf_.replacePose(r.pose, r.covariance);  // uncorrelated, still valid
   }
+  // The scans processed while lost were dead-reckoned from a wrong pose, but the odometry
+  // between each of them and this scan holds: carried back from the fixed pose they are where
+  // the vehicle was (docs/relocalisation.md, "The lost path").
+  const Eigen::Vector3d to_fixed = composePose(pose(), inversePose(dead_reckoned));
+  report->lost_path.reserve(lost_path_.size());
+  for (LostPathPose p : lost_path_) {
+    p.pose = composePose(to_fixed, p.pose);
+    p.pose.z() = wrapAngle(p.pose.z());
+    report->lost_path.push_back(p);
+  }
+  counters_.lost_path_poses += lost_path_.size();
+  lost_path_.clear();
   ++counters_.relocalisations;
   report->relocalised = true;
   lost_ = false;
@@ -876,9 +901,13 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
   report.invalid_decisions = sanitise(n, &report.association);
   if (report.invalid_decisions > 0) ++counters_.invalid_associations;
   // A kidnap found by rule 3: the associator's decisions are not applied, the relocaliser's are.
-  if (relocaliser_ && checkRefused(&report)) return report;
+  if (relocaliser_ && checkRefused(&report)) {
+    rememberLostPose(report);
+    return report;
+  }
   applyAssociation(&report);
   if (relocaliser_) checkLost(&report);
+  rememberLostPose(report);  // went lost at this scan: its pose is carried back at the fix too
   return report;
 }
 

@@ -584,6 +584,11 @@ void EkfSlamNode::publish(const ScanReport& report) {
   ps.pose = toPoseMsg(pose);
   path_.header.stamp = stamp;
   path_.poses.push_back(ps);
+  // Relocalised: the scans processed while lost take the poses re-derived from the fix.
+  applyLostPath(
+      report.lost_path, path_.poses.size() - 1,
+      [this](std::size_t i) { return path_.poses[i].header.stamp.toSec(); },
+      [this](std::size_t i, const Eigen::Vector3d& p) { path_.poses[i].pose = toPoseMsg(p); });
 
   if (pose_pub_.getNumSubscribers() > 0) {
     geometry_msgs::PoseWithCovarianceStamped msg;

@@ -483,6 +483,9 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   update_us.reserve(num_scans);
   std::vector<StampedPoint> laser_track;
   laser_track.reserve(num_scans);
+  // The sensor track as estimated at each scan, before a relocalisation re-derived the lost ones.
+  std::vector<StampedPoint> online_track;
+  online_track.reserve(num_scans);
   // Output rows are kept in memory and written after the loop, so that the wall time measures
   // the SLAM processing alone.
   std::vector<PoseRow> poses;
@@ -561,6 +564,14 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     poses.push_back({r.stamp, x, P.diagonal(), filter.correction(),
                      filter.correctionCovariance().diagonal().cwiseSqrt()});
     laser_track.push_back({r.stamp, pipeline.observationModel().sensorPose(x).head<2>()});
+    online_track.push_back(laser_track.back());
+    // Relocalised: the rows of the scans processed while lost take their re-derived poses.
+    applyLostPath(
+        r.lost_path, poses.size() - 1, [&poses](std::size_t i) { return poses[i].stamp; },
+        [&](std::size_t i, const Eigen::Vector3d& p) {
+          poses[i].pose = p;
+          laser_track[i].position = pipeline.observationModel().sensorPose(p).head<2>();
+        });
     Eigen::Vector3d true_pose;
     const bool have_pose = score && truePoseAt(bag.ground_truth, r.stamp, &true_pose);
     std::vector<LandmarkId> scan_truth;
@@ -789,10 +800,13 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   }
 
   // --- GPS -------------------------------------------------------------------------------------
-  TrajectoryError gps_error, gps_clean_error;
+  TrajectoryError gps_error, gps_clean_error, gps_online_error;
   std::vector<bool> gps_faulty;
   if (!bag.gps.empty()) {
     gps_error = compareTrajectories(laser_track, bag.gps);
+    gps_online_error = pipeline.counters().lost_path_poses > 0
+                           ? compareTrajectories(online_track, bag.gps)
+                           : gps_error;
     // The same without the fixes the GPS track itself shows faulty (judged from the GPS and the
     // odometry only: trajectory_metrics.h, faultyGpsFixes).
     std::vector<StampedPoint> gps = bag.gps;
@@ -879,6 +893,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   }
   if (!bag.gps.empty()) {
     j["gps_rmse_m"] = number(gps_error.rmse_aligned);
+    j["gps_rmse_online_m"] = number(gps_online_error.rmse_aligned);  // lost path not re-derived
     j["gps_rmse_clean_m"] = number(gps_clean_error.rmse_aligned);
     j["gps_faulty_fixes"] = std::count(gps_faulty.begin(), gps_faulty.end(), true);
     j["gps_median_error_clean_m"] = number(gps_clean_error.median_aligned);
@@ -930,6 +945,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                    {"relocalisations_ambiguous", k.relocalisations_ambiguous},
                    {"relocalisations_not_found", k.relocalisations_not_found},
                    {"relocalisations_unconfirmed", k.relocalisations_unconfirmed},
+                   {"lost_path_poses", k.lost_path_poses},
                    {"discarded_landmarks", k.discarded_landmarks}};
   j["relocaliser"] = relocaliser_short;
   j["lost_at_end"] = pipeline.lost();

@@ -192,6 +192,28 @@ struct LandmarkInfo {
   std::int64_t created_scan = -1;  ///< scan that initialised it; -1: loaded from a map file
 };
 
+/// The pose of a scan processed while lost, re-derived once the pipeline is relocalised.
+struct LostPathPose {
+  std::uint32_t scan = 0;
+  double stamp = 0.0;
+  Eigen::Vector3d pose = Eigen::Vector3d::Zero();
+};
+
+/// Applies a ScanReport::lost_path to a trajectory kept by the caller: rows [0, end) in stamp
+/// order, `stamp(i)` the stamp of row i, `set(i, pose)` replaces its pose. A row is matched
+/// within 1 us (stamps may have gone through ros::Time); rows without a lost pose are left alone.
+template <class Stamp, class Set>
+void applyLostPath(const std::vector<LostPathPose>& path, std::size_t end, Stamp stamp, Set set) {
+  constexpr double kTolerance = 1e-6;
+  std::size_t i = end;
+  for (auto p = path.rbegin(); p != path.rend(); ++p) {
+    while (i > 0 && stamp(i - 1) > p->stamp + kTolerance) --i;
+    if (i == 0 || stamp(i - 1) < p->stamp - kTolerance) continue;
+    --i;
+    set(i, p->pose);
+  }
+}
+
 /// What happened in one scan.
 struct ScanReport {
   bool late = false;  ///< stamp was older than the filter: used time()
@@ -225,6 +247,9 @@ struct ScanReport {
   RelocalisationResult relocalisation;  ///< of the attempt
   double relocalisation_s = 0.0;        ///< wall time of the relocaliser call
   int landmarks_expected = 0;           ///< map landmarks in view (lost rule 1), when tracking
+  /// Relocalised: the poses of the scans processed while lost (oldest first), carried back from
+  /// this scan's pose by the odometry between them (docs/relocalisation.md, "The lost path").
+  std::vector<LostPathPose> lost_path;
 };
 
 /// Counters of inputs that needed handling (reported by the shells as warnings).
@@ -259,6 +284,7 @@ struct PipelineCounters {
   std::uint64_t lost_timeouts = 0;  ///< lost_max_scans reached: tracking resumed unrelocalised
   std::uint64_t relocalisations_not_found = 0;
   std::uint64_t relocalisations_unconfirmed = 0;  ///< found, held for confirmation
+  std::uint64_t lost_path_poses = 0;  ///< lost scans' poses re-derived at a relocalisation
   /// Recent landmarks (lost_recent_scans) removed when the pipeline went lost (they may come
   /// from a pose now taken to be wrong).
   std::uint64_t discarded_landmarks = 0;
@@ -495,6 +521,10 @@ class SlamPipeline {
   /// One relocaliser call on the window (the current scan last); returns the current scan's part.
   RelocalisationResult relocaliseWindow(ScanReport* report);
   bool pose_unknown_ = false;
+  // The dead-reckoned pose of each scan since going lost (at most kMaxLostPath, the newest), for
+  // ScanReport::lost_path.
+  std::deque<LostPathPose> lost_path_;
+  void rememberLostPose(const ScanReport& report);  // while lost: the scan's pose, for the above
   int unpaired_streak_ = 0;
   int nis_streak_ = 0;
   int refused_streak_ = 0;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
@@ -31,6 +32,20 @@ inline Eigen::Vector2d compensate(const Eigen::Vector2d& v, const Eigen::Vector2
                                   MeasurementKind kind) {
   if (kind == MeasurementKind::kCartesian) return v - v_bar;
   return Eigen::Vector2d(v(0) - v_bar(0), wrapAngle(v(1) - v_bar(1)));
+}
+
+// D^2 + ln|S| of a joint hypothesis (-2 ln N(v; 0, S) less its 2 pi term); infinite when S is not
+// positive definite, 0 for no pairs.
+double jointCost2(const AssociationContext& ctx, const std::vector<std::pair<int, int>>& pairs) {
+  if (pairs.empty()) return 0.0;
+  Eigen::VectorXd v;
+  Eigen::MatrixXd S;
+  ctx.jointInnovation(pairs, &v, &S);
+  const Eigen::LLT<Eigen::MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) return kInf;
+  double log_det = 0.0;
+  for (int k = 0; k < S.rows(); ++k) log_det += 2.0 * std::log(llt.matrixL()(k, k));
+  return v.dot(llt.solve(v)) + log_det;
 }
 
 inline std::int64_t cellOf(double v, double cell) {
@@ -411,15 +426,7 @@ double DJNN::jointCost(const AssociationContext& ctx, const std::vector<int>& h)
       cost += gate_ + ctx.individual(i, cand_[assign_[i]]).log_det_S;
     }
   }
-  if (pairs.empty()) return cost;
-  Eigen::VectorXd v;
-  Eigen::MatrixXd S;
-  ctx.jointInnovation(pairs, &v, &S);
-  const Eigen::LLT<Eigen::MatrixXd> llt(S);
-  if (llt.info() != Eigen::Success) return kInf;
-  double log_det = 0.0;
-  for (int k = 0; k < S.rows(); ++k) log_det += 2.0 * std::log(llt.matrixL()(k, k));
-  return cost + v.dot(llt.solve(v)) + log_det;
+  return cost + jointCost2(ctx, pairs);
 }
 
 // In a periodic layout (markers every 0.8 m along a corridor) a pose error of a spacing or more
@@ -505,15 +512,7 @@ void DJNN::densityTest(const AssociationContext& ctx) {
     for (int i = 0; i < m; ++i) {
       if (assign_[i] >= 0 && i != skip) pairs.emplace_back(i, cand_[assign_[i]]);
     }
-    if (pairs.empty()) return 0.0;
-    Eigen::VectorXd v;
-    Eigen::MatrixXd S;
-    ctx.jointInnovation(pairs, &v, &S);
-    const Eigen::LLT<Eigen::MatrixXd> llt(S);
-    if (llt.info() != Eigen::Success) return kInf;
-    double log_det = 0.0;
-    for (int k = 0; k < S.rows(); ++k) log_det += 2.0 * std::log(llt.matrixL()(k, k));
-    return v.dot(llt.solve(v)) + log_det + S.rows() * log_2pi;
+    return jointCost2(ctx, pairs) + 2.0 * static_cast<double>(pairs.size()) * log_2pi;
   };
   // Each pairing is judged given the others (-2 ln of its conditional likelihood: the joint cost
   // with it less the joint cost without it): a marker never seen before paired with an old one a

@@ -5,6 +5,7 @@ if(CATKIN_ENABLE_TESTING)
   ekf_slam_gtest(test_sensor_model ekf_slam_core)
   ekf_slam_gtest(test_djnn_detection ekf_slam_core)
   ekf_slam_gtest(test_djnn_admission ekf_slam_core)
+  ekf_slam_gtest(test_djnn_tentative_pose ekf_slam_core)
   ekf_slam_gtest(test_cartesian_observations ekf_slam_core)
 endif()
 

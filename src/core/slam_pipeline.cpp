@@ -934,6 +934,7 @@ void SlamPipeline::applyAssociation(ScanReport* report) {
   }
   pairings_.insert(pairings_.end(), carried_.begin(), carried_.end());
   report->nis_dof = 2 * static_cast<int>(pairings_.size());
+  const Eigen::Vector3d prior = ekf_.pose();
   report->update_ok = cekf_ ? cekf_->update(pairings_, model_, &report->nis)
                             : ekf_.update(pairings_, model_, &report->nis);
   counters_.clamped_corrections = ekf_.correctionClamps();
@@ -942,6 +943,7 @@ void SlamPipeline::applyAssociation(ScanReport* report) {
     ++counters_.rejected_updates;
     report->nis = 0.0;
   } else {
+    if (!pairings_.empty()) associator_->poseCorrected(prior, ekf_.pose());
     for (std::size_t i = 0; i < n; ++i) {
       if (result.decision[i] != Decision::kPaired) continue;
       LandmarkInfo& info = info_[result.landmark[i]];

@@ -166,6 +166,12 @@ class DataAssociation {
   /// so that a reused map is not thrown away before the data had a chance to confirm it.
   virtual void landmarkLoaded(LandmarkId /*id*/, std::uint32_t /*times_observed*/) {}
 
+  /// The EKF update of the last associate() call moved the pose estimate from `prior` to
+  /// `posterior` (x, y, heading; map frame). Associators that keep features outside the map,
+  /// placed from the prior pose, can move them along (DJNN's tentative features).
+  virtual void poseCorrected(const Eigen::Vector3d& /*prior*/,
+                             const Eigen::Vector3d& /*posterior*/) {}
+
   /// Forgets all state kept between scans (tentative features, counters).
   virtual void reset() = 0;
 

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 
 #include "ekf_slam/core/angles.h"
@@ -30,6 +32,20 @@ inline Eigen::Vector2d compensate(const Eigen::Vector2d& v, const Eigen::Vector2
                                   MeasurementKind kind) {
   if (kind == MeasurementKind::kCartesian) return v - v_bar;
   return Eigen::Vector2d(v(0) - v_bar(0), wrapAngle(v(1) - v_bar(1)));
+}
+
+// D^2 + ln|S| of a joint hypothesis (-2 ln N(v; 0, S) less its 2 pi term); infinite when S is not
+// positive definite, 0 for no pairs.
+double jointCost2(const AssociationContext& ctx, const std::vector<std::pair<int, int>>& pairs) {
+  if (pairs.empty()) return 0.0;
+  Eigen::VectorXd v;
+  Eigen::MatrixXd S;
+  ctx.jointInnovation(pairs, &v, &S);
+  const Eigen::LLT<Eigen::MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) return kInf;
+  double log_det = 0.0;
+  for (int k = 0; k < S.rows(); ++k) log_det += 2.0 * std::log(llt.matrixL()(k, k));
+  return v.dot(llt.solve(v)) + log_det;
 }
 
 inline std::int64_t cellOf(double v, double cell) {
@@ -83,6 +99,11 @@ void DJNN::configure(const ParameterSource& params) {
   p.static_test = r.flag("static_test", def.static_test);
   p.static_probability = r.probability("static_probability", def.static_probability);
   p.static_jitter = r.nonNegative("static_jitter", def.static_jitter);
+  p.static_heading = r.flag("static_heading", def.static_heading);
+  p.tentative_follow_pose = r.flag("tentative_follow_pose", def.tentative_follow_pose);
+  p.shift_test = r.flag("shift_test", def.shift_test);
+  p.shift_margin = r.nonNegative("shift_margin", def.shift_margin);
+  p.landmark_density = r.nonNegative("landmark_density", def.landmark_density);
   p.static_min_speed = r.nonNegative("static_min_speed", def.static_min_speed);
   p.bias_test = r.flag("bias_test", def.bias_test);
   p.bias_probability = r.probability("bias_probability", def.bias_probability);
@@ -380,6 +401,8 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
     }
   }
 
+  if (p_.shift_test) shiftTest(ctx);
+  if (p_.landmark_density > 0.0) densityTest(ctx);
   countPairings();
   for (int i = 0; i < m; ++i) {
     if (assign_[i] >= 0) result.pair(i, ctx.landmarkId(cand_[assign_[i]]));
@@ -387,6 +410,130 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   updateMapEvidence(ctx, &result);
   handleUnpaired(ctx, &result);
   return result;
+}
+
+// --- shift test ------------------------------------------------------------------------------
+
+double DJNN::jointCost(const AssociationContext& ctx, const std::vector<int>& h) const {
+  std::vector<std::pair<int, int>> pairs;
+  double cost = 0.0;
+  for (int i = 0; i < static_cast<int>(h.size()); ++i) {
+    if (assign_[i] < 0) continue;  // not part of the scan's pairing
+    if (h[i] >= 0) {
+      pairs.emplace_back(i, cand_[h[i]]);
+    } else {
+      // Left unpaired: charged as a pairing at the edge of the gate.
+      cost += gate_ + ctx.individual(i, cand_[assign_[i]]).log_det_S;
+    }
+  }
+  return cost + jointCost2(ctx, pairs);
+}
+
+// In a periodic layout (markers every 0.8 m along a corridor) a pose error of a spacing or more
+// makes the scan fit its neighbours nearly as well: each observation's NN (and eq. 6's common
+// compensation) is then a guess. The joint likelihood with the full covariance (pose correlation
+// included) weighs the whole scan against the same scan shifted: each shift is the displacement
+// from a paired landmark to another candidate within the gate of its observation, applied to every
+// pairing (each takes the candidate nearest to its landmark plus the shift, within its gate).
+void DJNN::shiftTest(const AssociationContext& ctx) {
+  const int m = static_cast<int>(assign_.size());
+  const int n = static_cast<int>(cand_.size());
+  const EkfSlam& ekf = ctx.ekf();
+  int paired = 0;
+  for (int a : assign_) paired += a >= 0;
+  if (paired == 0) return;
+  const double base = jointCost(ctx, assign_);
+  double best = kInf;
+  std::vector<int> best_h, h(m);
+  std::vector<Eigen::Vector2d> tried;
+  for (int i = 0; i < m; ++i) {
+    if (assign_[i] < 0) continue;
+    for (int c = 0; c < n; ++c) {
+      if (c == assign_[i] || ctx.individual(i, cand_[c]).mahalanobis > ambiguity_gate_) continue;
+      const Eigen::Vector2d d = ekf.landmark(cand_[c]) - ekf.landmark(cand_[assign_[i]]);
+      bool seen = false;
+      for (const Eigen::Vector2d& t : tried) seen = seen || (t - d).norm() < 1e-6;
+      if (seen) continue;
+      tried.push_back(d);
+      std::vector<char> used(n, 0);
+      for (int k = 0; k < m; ++k) {
+        h[k] = -1;
+        if (assign_[k] < 0) continue;
+        const Eigen::Vector2d target = ekf.landmark(cand_[assign_[k]]) + d;
+        double nearest = kInf;
+        for (int c2 = 0; c2 < n; ++c2) {
+          if (used[c2] || ctx.individual(k, cand_[c2]).mahalanobis > ambiguity_gate_) continue;
+          const double dist = (ekf.landmark(cand_[c2]) - target).squaredNorm();
+          if (dist < nearest) {
+            nearest = dist;
+            h[k] = c2;
+          }
+        }
+        if (h[k] >= 0) used[h[k]] = 1;
+      }
+      if (h == assign_) continue;
+      const double cost = jointCost(ctx, h);
+      if (cost < best) {
+        best = cost;
+        best_h = h;
+      }
+    }
+  }
+  if (best_h.empty() || best > base + p_.shift_margin) return;  // the pairing stands out
+  if (best < base - p_.shift_margin) {
+    assign_ = best_h;  // a shift is clearly likelier
+    ++stats_.shifts_taken;
+    return;
+  }
+  // Both likely: the pairings that differ are not decided on this scan.
+  for (int i = 0; i < m; ++i) {
+    if (assign_[i] >= 0 && best_h[i] != assign_[i]) {
+      assign_[i] = -1;
+      gated_[i] = 1;
+    }
+  }
+  ++stats_.shifts_ambiguous;
+}
+
+// An observation paired with landmark j has likelihood N(v; 0, S) under that pairing, and lambda
+// (per m^2) under "a landmark not in the map, or clutter". NN's gate only asks v^T S^-1 v <= chi2:
+// when the pose is uncertain by a metre, S is large, N(v; 0, S) falls below the density of unmapped
+// markers, and a marker never seen before is paired with an old one inside the wide gate (the
+// loop closures of `fiducials`). Jointly, observations that fit one pose correction multiply
+// densities of the observation noise, far above lambda^k; a lone pairing does not.
+void DJNN::densityTest(const AssociationContext& ctx) {
+  const int m = static_cast<int>(assign_.size());
+  const double null_cost = -2.0 * std::log(p_.landmark_density + p_.sensor.clutter_density);
+  const double log_2pi = std::log(2.0 * M_PI);
+  // -2 ln N(v; 0, S) of the pairings of assign_ but `skip` (-1: none).
+  std::vector<std::pair<int, int>> pairs;
+  auto cost = [&](int skip) {
+    pairs.clear();
+    for (int i = 0; i < m; ++i) {
+      if (assign_[i] >= 0 && i != skip) pairs.emplace_back(i, cand_[assign_[i]]);
+    }
+    return jointCost2(ctx, pairs) + 2.0 * static_cast<double>(pairs.size()) * log_2pi;
+  };
+  // Each pairing is judged given the others (-2 ln of its conditional likelihood: the joint cost
+  // with it less the joint cost without it): a marker never seen before paired with an old one a
+  // metre off, next to pairings that fix the pose, stands out; withdrawn worst first.
+  while (true) {
+    const double all = cost(-1);
+    int worst = -1;
+    double worst_cost = null_cost;
+    for (int i = 0; i < m; ++i) {
+      if (assign_[i] < 0) continue;
+      const double c = all - cost(i);
+      if (!(c <= worst_cost)) {
+        worst_cost = c;
+        worst = i;
+      }
+    }
+    if (worst < 0) return;
+    assign_[worst] = -1;
+    gated_[worst] = 1;
+    ++stats_.density_withdrawn;
+  }
 }
 
 // --- evidence (eq. 9) ----------------------------------------------------------------------------
@@ -530,7 +677,8 @@ void DJNN::queryTentatives(const Eigen::Vector2d& center, double radius,
   std::sort(out->begin(), out->end());
 }
 
-int DJNN::addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, double stamp) {
+int DJNN::addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, double stamp,
+                       const Eigen::Vector2d& heading_lever) {
   int slot;
   if (!free_slots_.empty()) {
     slot = free_slots_.back();
@@ -543,14 +691,15 @@ int DJNN::addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, d
   t.position = pos;
   t.alive = true;
   tentative_cells_[tentativeKey(pos)].push_back(slot);
-  startTentative(slot, pos, cov, stamp);
+  startTentative(slot, pos, cov, stamp, heading_lever);
   return slot;
 }
 
 void DJNN::startTentative(int slot, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
-                          double stamp) {
+                          double stamp, const Eigen::Vector2d& heading_lever) {
   Tentative& t = tentative_[slot];
   t.cov = C;
+  t.heading_lever = heading_lever;
   t.evidence = bump(0.0, evidenceStep(true, C));  // seen now
   t.last_seen = stamp;
   t.sightings = 1;
@@ -655,7 +804,9 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
   // Observations that may be a feature not yet in the map: unpaired, not ambiguous, inside the
   // effective range (beyond R nothing can be paired, so they would only duplicate landmarks).
   std::vector<Sighting>& seen = sightings_;
-  seen.assign(m, Sighting{Eigen::Vector2d::Zero(), Eigen::Matrix2d::Zero(), -1, false});
+  seen.assign(m, Sighting{Eigen::Vector2d::Zero(), Eigen::Matrix2d::Zero(), Eigen::Vector2d::Zero(),
+                          -1, false});
+  const double heading_var = p_.static_heading ? std::max(0.0, P_vv(2, 2)) : 0.0;
   std::vector<TentativePair>& pairs = tentative_pairs_;
   pairs.clear();
   for (int i = 0; i < m; ++i) {
@@ -669,13 +820,21 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     Eigen::Matrix2d G_obs;
     seen[i].pos = ctx.model().inverse(pose, o.z, o.kind, &G_pose, &G_obs);
     seen[i].cov_obs = G_obs * o.R * G_obs.transpose();
+    seen[i].heading_lever = G_pose.col(2);
     // Gate on position: observation noise of both sightings plus the current pose covariance once
     // (an upper bound on the pose error accumulated between the sightings; using it twice would
     // double-count the correlated part).
-    const Eigen::Matrix2d C = seen[i].cov_obs + G_pose * P_vv * G_pose.transpose();
+    // With tentative_follow_pose the features move with the pose's corrections, so the pose error
+    // is common to both sightings: only the heading error's share that differs with the lever
+    // remains (as in the static test).
+    const Eigen::Matrix2d C = p_.tentative_follow_pose
+                                  ? seen[i].cov_obs
+                                  : (seen[i].cov_obs + G_pose * P_vv * G_pose.transpose()).eval();
+    const double lever_var = p_.tentative_follow_pose ? std::max(0.0, P_vv(2, 2)) : 0.0;
     for (int k = 0; k < static_cast<int>(tent_near_.size()); ++k) {
       const Tentative& t = tentative_[tent_near_[k]];
-      const Eigen::Matrix2d S = C + t.cov;
+      const Eigen::Vector2d dl = seen[i].heading_lever - t.heading_lever;
+      const Eigen::Matrix2d S = C + t.cov + lever_var * dl * dl.transpose();
       const Eigen::Vector2d e = seen[i].pos - t.position;
       const double d2 = e.dot(S.inverse() * e);
       if (d2 <= tentative_gate_) pairs.push_back({d2, i, k});
@@ -698,7 +857,10 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
       // Recursive least-squares residual of the sightings about one static point: the new
       // sighting's normalised distance to the fused position of the earlier ones.
       const Eigen::Vector2d e = z - t.position;
-      t.residual += e.dot((t.cov + C).inverse() * e);
+      // A heading error common to the sightings moves each by its lever times the error: they
+      // differ by the change of lever (zero without static_heading).
+      const Eigen::Vector2d dl = seen[cnd.obs].heading_lever - t.heading_lever;
+      t.residual += e.dot((t.cov + C + heading_var * dl * dl.transpose()).inverse() * e);
       ++t.sightings;
       bool moving = t.residual > static_gate_(2 * (t.sightings - 1));
       if (p_.static_min_speed > 0.0 && !moving) {
@@ -711,7 +873,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
       }
       if (moving) {
         // Not one static point (a slow mover): its history is void; restart from this sighting.
-        startTentative(slot, z, C, stamp);
+        startTentative(slot, z, C, stamp, seen[cnd.obs].heading_lever);
         ++stats_.static_restarts;
         continue;
       }
@@ -719,6 +881,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     // Fuse the sightings (information-weighted on their observation noise).
     const Eigen::Matrix2d K = t.cov * (t.cov + C).inverse();
     const Eigen::Vector2d fused = t.position + K * (z - t.position);
+    t.heading_lever += K * (seen[cnd.obs].heading_lever - t.heading_lever);
     t.cov = (Eigen::Matrix2d::Identity() - K) * t.cov;
     t.cov = 0.5 * (t.cov + t.cov.transpose()).eval();
     t.evidence = bump(t.evidence, evidenceStep(true, t.cov));
@@ -748,7 +911,9 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
   for (int i = 0; i < m; ++i) {
     if (!seen[i].eligible) continue;
     int slot = seen[i].slot;
-    if (slot < 0) slot = addTentative(seen[i].pos, seen[i].cov_obs + jitter, stamp);
+    if (slot < 0) {
+      slot = addTentative(seen[i].pos, seen[i].cov_obs + jitter, stamp, seen[i].heading_lever);
+    }
     const double t = tentative_[slot].evidence;
     // With P_D < 1 a hit is worth more than 1, so T reaches the threshold after fewer sightings
     // than at P_D = 1; the static test still needs the paper's admit_evidence sightings of one
@@ -785,6 +950,23 @@ void DJNN::landmarkAdded(int obs, LandmarkId id) {
     t = pending_new_[obs];
   }
   evidence_[id] = t;
+}
+
+// A tentative feature was placed from the pose estimate of its sightings, so its error is that
+// pose's error: when an update corrects the pose, a landmark initialised from it would move along
+// (its cross-covariance with the pose is G_x P_vv), and the tentative feature follows the same
+// rigid motion. Only those within reach of the sensor: the others' next sightings are far off.
+void DJNN::poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& posterior) {
+  if (!p_.tentative_follow_pose || tentative_cells_.empty()) return;
+  const double dth = wrapAngle(posterior(2) - prior(2));
+  const Eigen::Matrix2d Rot = Eigen::Rotation2Dd(dth).toRotationMatrix();
+  queryTentatives(prior.head<2>(), p_.sensor.max_range + p_.range_margin, &tent_near_);
+  for (int slot : tent_near_) {
+    Tentative& t = tentative_[slot];
+    t.cov = Rot * t.cov * Rot.transpose();
+    t.heading_lever = Rot * t.heading_lever;
+    moveTentative(slot, posterior.head<2>() + Rot * (t.position - prior.head<2>()));
+  }
 }
 
 void DJNN::landmarkLoaded(LandmarkId id, std::uint32_t times_observed) {

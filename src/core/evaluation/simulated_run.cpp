@@ -144,6 +144,17 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
     // Other robots among sparse detections: admission needs sightings spanning the time in which
     // the slowest of them shows its motion (docs/djnn.md, "A minimum speed for the static test").
     if (world.movers.count > 0) p["static_min_speed"] = text(world.movers.min_speed);
+    // A camera that misses landmarks keeps many of them tentative while the pose is corrected:
+    // the features follow the corrections and the static test allows for the heading error
+    // (docs/djnn.md, "Tentative features and the pose error"). Pairings are weighed jointly against
+    // a shifted scan and against unmapped landmarks, at the world's mean landmark density.
+    p["tentative_follow_pose"] = "true";
+    p["static_heading"] = "true";
+    p["shift_test"] = "true";
+    const Eigen::Vector2d extent = world.area_max - world.area_min;
+    if (extent.x() > 0.0 && extent.y() > 0.0 && !world.landmarks.empty()) {
+      p["landmark_density"] = text(double(world.landmarks.size()) / (extent.x() * extent.y()));
+    }
   }
   const double R = coveringRange(world);
   if (R < 15.0) p["range_margin"] = text(0.2 * R);

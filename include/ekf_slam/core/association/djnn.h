@@ -42,9 +42,12 @@ class DJNN : public DataAssociation {
     std::uint64_t admitted = 0;           ///< kNew decisions
     std::uint64_t removed = 0;            ///< landmarks returned in result.remove
     std::uint64_t tentative_dropped = 0;
-    std::uint64_t static_restarts = 0;  ///< tentative features restarted by the static test
-    std::uint64_t biased_removed = 0;   ///< landmarks removed by the innovation-bias test
-    std::uint64_t biased_kept = 0;      ///< pairings withdrawn from established landmarks
+    std::uint64_t static_restarts = 0;    ///< tentative features restarted by the static test
+    std::uint64_t biased_removed = 0;     ///< landmarks removed by the innovation-bias test
+    std::uint64_t biased_kept = 0;        ///< pairings withdrawn from established landmarks
+    std::uint64_t shifts_taken = 0;       ///< scans whose pairing a likelier shift replaced
+    std::uint64_t shifts_ambiguous = 0;   ///< scans with pairings withdrawn as ambiguous
+    std::uint64_t density_withdrawn = 0;  ///< pairings withdrawn by the density test
   };
 
   /// Parameters (names as read in configure(); defaults in docs/djnn.md).
@@ -76,6 +79,29 @@ class DJNN : public DataAssociation {
     bool static_test = true;
     double static_probability = 0.9;
     double static_jitter = 0.0;
+    /// The static test also allows for the pose's heading error, held common to the sightings:
+    /// its effect on a sighting grows with the lever from the vehicle to the point, so sightings
+    /// from different distances differ by sigma_theta times the change of that lever (a camera
+    /// approaching a floor marker). Position errors common to the sightings cancel and are left
+    /// out, as before.
+    bool static_heading = false;
+    /// Tentative features follow the pose estimate's correction in each EKF update (a rigid
+    /// transform from the prior pose to the posterior one), as a landmark initialised from the
+    /// pose would through its correlation with it; false = they stay where they were placed.
+    bool tentative_follow_pose = false;
+    /// Shift test of the scan's pairings (a periodic layout, a loop closure with a large pose
+    /// error): the pairing of the scan is compared by joint likelihood, with the full covariance,
+    /// with the same scan shifted onto the neighbours in the gate. A shift more likely by more than
+    /// shift_margin (in -2 ln of the likelihood ratio) replaces it; one within the margin makes the
+    /// pairings that differ ambiguous (rejected: neither paired nor tentative). false = off.
+    bool shift_test = false;
+    double shift_margin = 6.0;
+    /// Unmapped landmarks per m^2 where the sensor looks (0 = off). With it the scan's pairings
+    /// must be likelier, jointly, than the same observations being landmarks not in the map (or
+    /// clutter: density landmark_density + clutter_density): while the pose is uncertain a lone
+    /// observation inside a wide gate says nothing, several that fit together do. Pairings are
+    /// withdrawn, least likely first, until the rest pass; the withdrawn observations are rejected.
+    double landmark_density = 0.0;
     /// Slowest speed [m/s] of a moving object that must be kept out of the map; 0 = off. With
     /// it, the sightings of a tentative feature are also fitted with a constant-velocity track:
     /// its velocity must pass v^T Sigma_v^-1 v <= chi2(2, static_probability) (else the feature
@@ -103,6 +129,7 @@ class DJNN : public DataAssociation {
   AssociationResult associate(const AssociationContext& ctx) override;
   void landmarkAdded(int obs, LandmarkId id) override;
   void landmarkLoaded(LandmarkId id, std::uint32_t times_observed) override;
+  void poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& posterior) override;
   void reset() override;
   int evidence(LandmarkId id) const override;
   std::vector<TentativeFeature> tentativeFeatures() const override;
@@ -117,6 +144,9 @@ class DJNN : public DataAssociation {
   struct Tentative {
     Eigen::Vector2d position;
     Eigen::Matrix2d cov;  ///< observation-noise part only (the pose part is added at gating)
+    /// d(position) / d(heading) of the fused sightings (static_heading): the lever of the fused
+    /// position, fused like it.
+    Eigen::Vector2d heading_lever = Eigen::Vector2d::Zero();
     double evidence = 0.0;
     double last_seen = 0.0;
     bool alive = false;
@@ -137,9 +167,10 @@ class DJNN : public DataAssociation {
   using CellKey = std::int64_t;
   /// An unpaired observation of this scan as a candidate feature (eq. 9).
   struct Sighting {
-    Eigen::Vector2d pos;      ///< inverse model at the current pose
-    Eigen::Matrix2d cov_obs;  ///< G_z R G_z^T
-    int slot;                 ///< tentative feature it matched, or -1
+    Eigen::Vector2d pos;            ///< inverse model at the current pose
+    Eigen::Matrix2d cov_obs;        ///< G_z R G_z^T
+    Eigen::Vector2d heading_lever;  ///< d pos / d heading (column 2 of G_x)
+    int slot;                       ///< tentative feature it matched, or -1
     bool eligible;
   };
   struct TentativePair {
@@ -180,7 +211,16 @@ class DJNN : public DataAssociation {
   /// Bias test of the landmark paired with observation `obs` (candidate `cand`); true = biased.
   bool biased(const AssociationContext& ctx, int obs, int cand);
   void handleUnpaired(const AssociationContext& ctx, AssociationResult* result);
-  int addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, double stamp);
+  /// The shift test (Params::shift_test) on assign_, before the evidence is counted.
+  void shiftTest(const AssociationContext& ctx);
+  /// The density test (Params::landmark_density) on assign_.
+  void densityTest(const AssociationContext& ctx);
+  /// -2 ln likelihood of pairing observation `obs` with candidate `c` (or none: -1) for every
+  /// paired observation of `h`, jointly: D^2 + ln|S| of the pairs, the gate plus ln|S_i| of the
+  /// closest candidate for an observation left unpaired.
+  double jointCost(const AssociationContext& ctx, const std::vector<int>& h) const;
+  int addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, double stamp,
+                   const Eigen::Vector2d& heading_lever);
   void dropTentative(int slot);
   void moveTentative(int slot, const Eigen::Vector2d& pos);
   CellKey tentativeKey(const Eigen::Vector2d& p) const;
@@ -188,7 +228,8 @@ class DJNN : public DataAssociation {
   double bump(double evidence, double r) const;
   /// Starts the tentative feature in `slot` afresh from one sighting (position z, observation
   /// covariance C, at `stamp`): its first sighting, or the restart after a failed static test.
-  void startTentative(int slot, const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp);
+  void startTentative(int slot, const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp,
+                      const Eigen::Vector2d& heading_lever);
   /// Adds a sighting to the constant-velocity fit of `t` (static_min_speed > 0).
   static void addToTrack(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
                          double stamp);

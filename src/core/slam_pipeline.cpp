@@ -100,6 +100,8 @@ void SlamPipeline::reset() {
   lost_ = false;
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   share_window_.clear();
+  share_probe_window_.clear();
+  informative_scans_ = 0;
   ++counters_.resets;
 }
 
@@ -144,6 +146,7 @@ void SlamPipeline::enterLost(bool pose_unknown) {
   held_.clear();
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   share_window_.clear();
+  share_probe_window_.clear();
   window_.clear();  // scans from before are at a pose now in doubt
   lost_path_.clear();
   relocaliser_->setMap(mapLandmarks());  // frozen until found
@@ -151,8 +154,10 @@ void SlamPipeline::enterLost(bool pose_unknown) {
 
 bool SlamPipeline::recent(LandmarkId id) const {
   const auto it = info_.find(id);
-  return it != info_.end() && it->second.created_scan >= 0 &&
-         static_cast<std::int64_t>(scans_) - it->second.created_scan <= config_.lost_recent_scans;
+  if (it == info_.end() || it->second.created_scan < 0) return false;
+  if (config_.lost_recent_informative)
+    return informative_scans_ - it->second.created_informative <= config_.lost_recent_scans;
+  return static_cast<std::int64_t>(scans_) - it->second.created_scan <= config_.lost_recent_scans;
 }
 
 void SlamPipeline::checkLost(ScanReport* report) {
@@ -188,26 +193,34 @@ void SlamPipeline::checkLost(ScanReport* report) {
   // Rule 4: over the last lost_share_window scans with established landmarks in view, too few
   // observations explained by them. Chance pairings (one or two a scan among many landmarks in
   // view) restart rule 1's count but hardly raise this share (docs/relocalisation.md).
-  bool rule4 = false;
+  bool rule4 = false, share_probe = false;
+  // Adds the scan to a share window; true when the full window is under lost_established_share.
+  const auto lowShare = [&](std::deque<std::pair<int, int>>* w, int* window_established,
+                            int* window_observations) {
+    w->emplace_back(established, n);
+    if (w->size() > static_cast<std::size_t>(config_.lost_share_window)) w->pop_front();
+    *window_established = *window_observations = 0;
+    for (const auto& [e, o] : *w) {
+      *window_established += e;
+      *window_observations += o;
+    }
+    return w->size() == static_cast<std::size_t>(config_.lost_share_window) &&
+           *window_established < config_.lost_established_share * *window_observations;
+  };
   if (config_.lost_share_window > 0 && n >= config_.lost_min_observations) {
     if (!share_rule && !unpaired) report->landmarks_expected = landmarksInView();
+    int window_established = 0, window_observations = 0;
     if (report->landmarks_expected >= config_.lost_min_expected) {
-      share_window_.emplace_back(established, n);
-      if (share_window_.size() > static_cast<std::size_t>(config_.lost_share_window))
-        share_window_.pop_front();
-      int window_established = 0, window_observations = 0;
-      for (const auto& [e, o] : share_window_) {
-        window_established += e;
-        window_observations += o;
-      }
-      rule4 = share_window_.size() == static_cast<std::size_t>(config_.lost_share_window) &&
-              window_established < config_.lost_established_share * window_observations;
+      rule4 = lowShare(&share_window_, &window_established, &window_observations);
       if (rule4) {
         report->lost_reason = std::to_string(window_established) + " of " +
                               std::to_string(window_observations) +
                               " observations paired with established landmarks in " +
                               std::to_string(config_.lost_share_window) + " scans";
       }
+    } else if (config_.lost_share_probe && report->landmarks_expected > 0) {
+      // Too few in view to call it lost from the share alone: the relocaliser decides.
+      share_probe = lowShare(&share_probe_window_, &window_established, &window_observations);
     }
   }
   if (rule1 || rule2 || rule4) {
@@ -230,7 +243,7 @@ void SlamPipeline::checkLost(ScanReport* report) {
   // Nothing established paired and nothing established in view: new ground, or a kidnap into a
   // place the filter takes for new ground. The relocaliser tells them apart: a confident pose in
   // the established map that the filter's estimate does not cover is a kidnap.
-  if (unpaired) probe(report);
+  if (unpaired || share_probe) probe(report);
 }
 
 bool SlamPipeline::checkRefused(ScanReport* report) {
@@ -905,6 +918,7 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
     rememberLostPose(report);
     return report;
   }
+  informative_scans_ += static_cast<int>(n) >= config_.lost_min_observations;
   applyAssociation(&report);
   if (relocaliser_) checkLost(&report);
   rememberLostPose(report);  // went lost at this scan: its pose is carried back at the fix too
@@ -971,6 +985,7 @@ void SlamPipeline::applyAssociation(ScanReport* report) {
     LandmarkInfo& info = info_[id];
     info.times_observed = 1;
     info.created_scan = report->scan;
+    info.created_informative = informative_scans_;
     if (std::isfinite(obs[i].descriptor)) {
       info.diameter = obs[i].descriptor;
       info.descriptor_count = 1;

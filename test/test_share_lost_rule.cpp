@@ -4,7 +4,7 @@
 // fires. Rule 4 looks at the share of observations paired with established landmarks over a
 // window of scans. A scripted associator plays the tracking filter (every observation paired)
 // and the kidnapped one (one pairing a scan, the rest unexplained).
-// Also rule 4's probe (lost_share_probe: the same share with fewer than lost_min_expected in view,
+// Also rule 4's probe (lost_share_probe: one scan under the share, the relocaliser decides;
 // Victoria Park's kidnap at 7000) and the age of a landmark counted in informative scans
 // (lost_recent_informative: the kidnap at 5000, where the scans held 0-4 observations).
 #include <gtest/gtest.h>

@@ -100,7 +100,6 @@ void SlamPipeline::reset() {
   lost_ = false;
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   share_window_.clear();
-  share_probe_window_.clear();
   informative_scans_ = 0;
   ++counters_.resets;
 }
@@ -146,7 +145,6 @@ void SlamPipeline::enterLost(bool pose_unknown) {
   held_.clear();
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   share_window_.clear();
-  share_probe_window_.clear();
   window_.clear();  // scans from before are at a pose now in doubt
   lost_path_.clear();
   relocaliser_->setMap(mapLandmarks());  // frozen until found
@@ -193,35 +191,39 @@ void SlamPipeline::checkLost(ScanReport* report) {
   // Rule 4: over the last lost_share_window scans with established landmarks in view, too few
   // observations explained by them. Chance pairings (one or two a scan among many landmarks in
   // view) restart rule 1's count but hardly raise this share (docs/relocalisation.md).
-  bool rule4 = false, share_probe = false;
-  // Adds the scan to a share window; true when the full window is under lost_established_share.
-  const auto lowShare = [&](std::deque<std::pair<int, int>>* w, int* window_established,
-                            int* window_observations) {
-    w->emplace_back(established, n);
-    if (w->size() > static_cast<std::size_t>(config_.lost_share_window)) w->pop_front();
-    *window_established = *window_observations = 0;
-    for (const auto& [e, o] : *w) {
-      *window_established += e;
-      *window_observations += o;
-    }
-    return w->size() == static_cast<std::size_t>(config_.lost_share_window) &&
-           *window_established < config_.lost_established_share * *window_observations;
-  };
+  bool rule4 = false;
   if (config_.lost_share_window > 0 && n >= config_.lost_min_observations) {
     if (!share_rule && !unpaired) report->landmarks_expected = landmarksInView();
-    int window_established = 0, window_observations = 0;
     if (report->landmarks_expected >= config_.lost_min_expected) {
-      rule4 = lowShare(&share_window_, &window_established, &window_observations);
+      share_window_.emplace_back(established, n);
+      if (share_window_.size() > static_cast<std::size_t>(config_.lost_share_window))
+        share_window_.pop_front();
+      int window_established = 0, window_observations = 0;
+      for (const auto& [e, o] : share_window_) {
+        window_established += e;
+        window_observations += o;
+      }
+      rule4 = share_window_.size() == static_cast<std::size_t>(config_.lost_share_window) &&
+              window_established < config_.lost_established_share * window_observations;
       if (rule4) {
         report->lost_reason = std::to_string(window_established) + " of " +
                               std::to_string(window_observations) +
                               " observations paired with established landmarks in " +
                               std::to_string(config_.lost_share_window) + " scans";
       }
-    } else if (config_.lost_share_probe && report->landmarks_expected > 0) {
-      // Too few in view to call it lost from the share alone: the relocaliser decides.
-      share_probe = lowShare(&share_probe_window_, &window_established, &window_observations);
     }
+  }
+  // Rule 4's probe: a scan with established landmarks in view of which it explains under
+  // lost_established_share by them (rule 4's share, one scan), with too few scans or too few in
+  // view for a rule to call it lost. A kidnap shows at once as such a scan (Victoria Park: one
+  // chance pairing of 8-10 observations), yet so does a tracking filter among trees the laser
+  // misses, so the relocaliser decides, as for rule 1 with few in view.
+  bool share_probe = false;
+  if (config_.lost_share_probe && !rule1 && !rule2 && !rule4 &&
+      n >= std::max(config_.lost_min_observations, 1) &&
+      established < config_.lost_established_share * n) {
+    if (config_.lost_share_window <= 0) report->landmarks_expected = landmarksInView();
+    share_probe = report->landmarks_expected > 0;
   }
   if (rule1 || rule2 || rule4) {
     if (rule1 || rule2) {

@@ -135,9 +135,10 @@ struct PipelineConfig {
   /// or two a scan by chance (which restarts rule 1's count). 0 disables the rule.
   int lost_share_window = 0;
   double lost_established_share = 0.15;
-  /// Rule 4's probe: the same share over the last lost_share_window scans with at least one but
-  /// fewer than lost_min_expected established landmarks in view; under lost_established_share the
-  /// relocaliser probes (as rule 1 does with fewer in view). false: off.
+  /// Rule 4's probe: a tracked scan with >= lost_min_observations observations and established
+  /// landmarks in view, of whose observations fewer than lost_established_share paired with
+  /// established landmarks, and no rule fired: the relocaliser probes (lost only when it puts the
+  /// vehicle where the estimate does not cover, as rule 1's probe). false: off.
   bool lost_share_probe = false;
   /// Lost this many scans without a relocalisation: tracking resumes from the dead-reckoned
   /// estimate (the map unfreezes). 0: stay lost until found (localisation in a saved map).
@@ -538,8 +539,7 @@ class SlamPipeline {
   int nis_streak_ = 0;
   int refused_streak_ = 0;
   std::deque<std::pair<int, int>> share_window_;  // rule 4: (established paired, observations)
-  std::deque<std::pair<int, int>> share_probe_window_;  // rule 4's probe: fewer in view
-  std::int64_t informative_scans_ = 0;                  // lost_recent_informative
+  std::int64_t informative_scans_ = 0;            // lost_recent_informative
   Chi2Table nis_chi2_;
 };
 

@@ -4,6 +4,9 @@
 // fires. Rule 4 looks at the share of observations paired with established landmarks over a
 // window of scans. A scripted associator plays the tracking filter (every observation paired)
 // and the kidnapped one (one pairing a scan, the rest unexplained).
+// Also rule 4's probe (lost_share_probe: one scan under the share, the relocaliser decides;
+// Victoria Park's kidnap at 7000) and the age of a landmark counted in informative scans
+// (lost_recent_informative: the kidnap at 5000, where the scans held 0-4 observations).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -50,18 +53,28 @@ class Scripted : public DataAssociation {
   std::vector<LandmarkId> ids_;
 };
 
-// A stationary vehicle at the origin that sees kLandmarks trees 8 m ahead, exactly.
+// An irregular patch of trees ahead (no symmetry a relocaliser could confuse), x forward.
+const Eigen::Vector2d kTrees[kLandmarks] = {{8.0, -1.2}, {9.5, -0.3},  {7.0, 0.4},  {11.0, 1.5},
+                                            {6.5, 2.5},  {10.0, -2.8}, {12.5, 0.9}, {8.8, 3.6}};
+
+PipelineConfig shareConfig(int share_window) {
+  PipelineConfig config;
+  config.lost_share_window = share_window;
+  return config;
+}
+
+// A stationary vehicle at the origin that sees the kLandmarks trees, exactly.
 class Scene {
  public:
-  explicit Scene(int share_window) {
-    PipelineConfig config;
-    config.lost_share_window = share_window;
+  explicit Scene(int share_window) : Scene(shareConfig(share_window)) {}
+  explicit Scene(const PipelineConfig& config) {
     associator_ = std::make_shared<Scripted>();
     pipeline_ = std::make_unique<SlamPipeline>(config, associator_);
     pipeline_->setRelocaliser(std::make_shared<FGCBB>());
   }
-  /// `scans` scans, each pairing `paired` observations (< 0: all); true if it went lost.
-  bool run(int scans, int paired) {
+  /// `scans` scans of the first `seen` trees, each pairing `paired` observations (< 0: all); true
+  /// if it went lost.
+  bool run(int scans, int paired, int seen = kLandmarks) {
     associator_->paired = paired;
     bool lost = false;
     for (int k = 0; k < scans && !lost; ++k) {
@@ -69,19 +82,22 @@ class Scene {
       OdometryInput o;
       o.stamp = t_;
       pipeline_->addOdometry(o);
-      std::vector<Observation> obs(kLandmarks);
-      for (int i = 0; i < kLandmarks; ++i) {
-        obs[i].z = Eigen::Vector2d(8.0, -1.2 + 2.4 * i / (kLandmarks - 1));
+      std::vector<Observation> obs(seen);
+      for (int i = 0; i < seen; ++i) {
+        obs[i].z = Eigen::Vector2d(kTrees[i].norm(), std::atan2(kTrees[i].y(), kTrees[i].x()));
         obs[i].R = Eigen::Vector2d(0.01, 1e-4).asDiagonal();
       }
-      lost = pipeline_->processObservations(t_, obs).became_lost;
+      last_ = pipeline_->processObservations(t_, obs);
+      lost = last_.became_lost;
     }
     return lost;
   }
   SlamPipeline& pipeline() { return *pipeline_; }
+  const ScanReport& last() const { return last_; }
 
  private:
   double t_ = 0.0;
+  ScanReport last_;
   std::shared_ptr<Scripted> associator_;
   std::unique_ptr<SlamPipeline> pipeline_;
 };
@@ -110,6 +126,67 @@ TEST(ShareLostRule, ATrackingFilterThatMissesMostLandmarksStaysTracking) {
   ASSERT_FALSE(s.run(30, -1));
   EXPECT_FALSE(s.run(60, 2));
   EXPECT_EQ(s.pipeline().counters().lost_events, 0u);
+}
+
+// Rule 4's probe: fewer established landmarks in view than lost_min_expected (here 9 > 8), so
+// neither rule 1 nor rule 4 may call it lost; one chance pairing a scan restarts rule 1's count,
+// so rule 1's probe never runs either.
+PipelineConfig probeConfig(bool share_probe) {
+  PipelineConfig config = shareConfig(10);
+  config.lost_min_expected = kLandmarks + 1;
+  config.lost_nis_scans = 0;  // the chance pairing's NIS is not what is tested
+  config.lost_share_probe = share_probe;
+  return config;
+}
+
+TEST(ShareLostRule, FewInViewAndALowShareProbeAndFindTheKidnap) {
+  Scene s(probeConfig(true));
+  ASSERT_FALSE(s.run(30, -1));
+  EXPECT_EQ(s.pipeline().counters().probes, 0u);  // tracking: the share is 1
+  s.pipeline().injectPoseJump(Eigen::Vector3d(2.5, -2.0, 0.3));
+  EXPECT_TRUE(s.run(12, 1));
+  EXPECT_GT(s.pipeline().counters().probes, 0u);
+  EXPECT_EQ(s.pipeline().counters().lost_events, 1u);
+  // The probe's fix is held for relocalisation_confirmations (0 here): applied at once, at the
+  // true pose, the origin.
+  EXPECT_FALSE(s.pipeline().lost());
+  EXPECT_LT(s.pipeline().ekf().pose().head<2>().norm(), 0.3);
+}
+
+TEST(ShareLostRule, WithoutTheShareProbeTheSameKidnapIsNeverSeen) {
+  Scene s(probeConfig(false));
+  ASSERT_FALSE(s.run(30, -1));
+  s.pipeline().injectPoseJump(Eigen::Vector3d(2.5, -2.0, 0.3));
+  EXPECT_FALSE(s.run(40, 1));
+  EXPECT_EQ(s.pipeline().counters().probes, 0u);
+  EXPECT_EQ(s.pipeline().counters().lost_events, 0u);
+}
+
+TEST(ShareLostRule, TheShareProbeAgreesWithATrackingFilter) {
+  // A poor detector (1 of 8 paired) at the right pose: probed, never lost.
+  Scene s(probeConfig(true));
+  ASSERT_FALSE(s.run(30, -1));
+  EXPECT_FALSE(s.run(40, 1));
+  EXPECT_GT(s.pipeline().counters().probes, 0u);
+  EXPECT_EQ(s.pipeline().counters().lost_events, 0u);
+}
+
+// lost_recent_informative: landmarks mapped, then 30 scans of 2 observations (fewer than
+// lost_min_observations 3), then a scan that sees all 8. Counted in scans they are established
+// (30 > lost_recent_scans 20) and in view; counted in informative scans they are still recent.
+int inViewAfterSparseScans(bool informative) {
+  PipelineConfig config = shareConfig(10);
+  config.lost_recent_informative = informative;
+  Scene s(config);
+  EXPECT_FALSE(s.run(1, -1));
+  EXPECT_FALSE(s.run(30, -1, 2));
+  EXPECT_FALSE(s.run(1, -1));
+  return s.last().landmarks_expected;
+}
+
+TEST(ShareLostRule, AgeCountedInInformativeScansKeepsLandmarksOfSparseScansRecent) {
+  EXPECT_EQ(inViewAfterSparseScans(false), kLandmarks);
+  EXPECT_EQ(inViewAfterSparseScans(true), 0);
 }
 
 TEST(ShareLostRule, ParametersAreValidated) {

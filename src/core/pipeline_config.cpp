@@ -228,6 +228,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_min_expected = r.integer("lost_min_expected", c.lost_min_expected, 0, 100000);
   c.lost_min_paired_share = r.inRange("lost_min_paired_share", c.lost_min_paired_share, 0.0, 1.0);
   c.lost_recent_scans = r.integer("lost_recent_scans", c.lost_recent_scans, 0, 100000);
+  c.lost_recent_informative = r.flag("lost_recent_informative", c.lost_recent_informative);
   c.lost_view_range = r.nonNegative("lost_view_range", c.lost_view_range);
   c.lost_field_of_view = r.inRange("lost_field_of_view", c.lost_field_of_view, 1e-6, 2.0 * M_PI);
   c.lost_nis_scans = r.integer("lost_nis_scans", c.lost_nis_scans, 0, 100000);
@@ -235,6 +236,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_share_window = r.integer("lost_share_window", c.lost_share_window, 0, 100000);
   c.lost_established_share =
       r.inRange("lost_established_share", c.lost_established_share, 0.0, 1.0);
+  c.lost_share_probe = r.flag("lost_share_probe", c.lost_share_probe);
   c.lost_max_scans = r.integer("lost_max_scans", c.lost_max_scans, 0, 100000);
   c.lost_nis_probability = r.probability("lost_nis_probability", c.lost_nis_probability);
   c.filter = r.text("filter", c.filter, {"ekf", "cekf"});

@@ -100,6 +100,7 @@ void SlamPipeline::reset() {
   lost_ = false;
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   share_window_.clear();
+  informative_scans_ = 0;
   ++counters_.resets;
 }
 
@@ -151,8 +152,10 @@ void SlamPipeline::enterLost(bool pose_unknown) {
 
 bool SlamPipeline::recent(LandmarkId id) const {
   const auto it = info_.find(id);
-  return it != info_.end() && it->second.created_scan >= 0 &&
-         static_cast<std::int64_t>(scans_) - it->second.created_scan <= config_.lost_recent_scans;
+  if (it == info_.end() || it->second.created_scan < 0) return false;
+  if (config_.lost_recent_informative)
+    return informative_scans_ - it->second.created_informative <= config_.lost_recent_scans;
+  return static_cast<std::int64_t>(scans_) - it->second.created_scan <= config_.lost_recent_scans;
 }
 
 void SlamPipeline::checkLost(ScanReport* report) {
@@ -210,6 +213,18 @@ void SlamPipeline::checkLost(ScanReport* report) {
       }
     }
   }
+  // Rule 4's probe: a scan with established landmarks in view of which it explains under
+  // lost_established_share by them (rule 4's share, one scan), with too few scans or too few in
+  // view for a rule to call it lost. A kidnap shows at once as such a scan (Victoria Park: one
+  // chance pairing of 8-10 observations), yet so does a tracking filter among trees the laser
+  // misses, so the relocaliser decides, as for rule 1 with few in view.
+  bool share_probe = false;
+  if (config_.lost_share_probe && !rule1 && !rule2 && !rule4 &&
+      n >= std::max(config_.lost_min_observations, 1) &&
+      established < config_.lost_established_share * n) {
+    if (config_.lost_share_window <= 0) report->landmarks_expected = landmarksInView();
+    share_probe = report->landmarks_expected > 0;
+  }
   if (rule1 || rule2 || rule4) {
     if (rule1 || rule2) {
       report->lost_reason =
@@ -230,7 +245,7 @@ void SlamPipeline::checkLost(ScanReport* report) {
   // Nothing established paired and nothing established in view: new ground, or a kidnap into a
   // place the filter takes for new ground. The relocaliser tells them apart: a confident pose in
   // the established map that the filter's estimate does not cover is a kidnap.
-  if (unpaired) probe(report);
+  if (unpaired || share_probe) probe(report);
 }
 
 bool SlamPipeline::checkRefused(ScanReport* report) {
@@ -905,6 +920,7 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
     rememberLostPose(report);
     return report;
   }
+  informative_scans_ += static_cast<int>(n) >= config_.lost_min_observations;
   applyAssociation(&report);
   if (relocaliser_) checkLost(&report);
   rememberLostPose(report);  // went lost at this scan: its pose is carried back at the fix too
@@ -973,6 +989,7 @@ void SlamPipeline::applyAssociation(ScanReport* report) {
     LandmarkInfo& info = info_[id];
     info.times_observed = 1;
     info.created_scan = report->scan;
+    info.created_informative = informative_scans_;
     if (std::isfinite(obs[i].descriptor)) {
       info.diameter = obs[i].descriptor;
       info.descriptor_count = 1;

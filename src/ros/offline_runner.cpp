@@ -16,6 +16,7 @@
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <numeric>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -950,6 +951,9 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   j["relocaliser"] = relocaliser_short;
   j["lost_at_end"] = pipeline.lost();
   j["relocalisation_us_median"] = number(quantile(relocalisation_us, 0.5));
+  // The whole cost of recovery, probes included (docs/relocalisation.md).
+  j["relocalisation_time_s"] =
+      1e-6 * std::accumulate(relocalisation_us.begin(), relocalisation_us.end(), 0.0);
   j["relocalisation_events"] = relocalisation_events;
   if (score) {
     const RunMetrics m = scorer->metrics(&pipeline);

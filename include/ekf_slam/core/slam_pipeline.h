@@ -111,6 +111,10 @@ struct PipelineConfig {
   /// Landmarks created fewer than this many scans ago are "recent": pairing them does not count
   /// for rule 1, they are not "in view", and they are discarded when the pipeline goes lost.
   int lost_recent_scans = 20;
+  /// Count that age in informative scans only (tracked, >= lost_min_observations observations):
+  /// where the scans hold few observations, landmarks mapped at a kidnapped pose would otherwise
+  /// turn established before any rule could see enough to fire (docs/relocalisation.md).
+  bool lost_recent_informative = false;
   double lost_view_range = 0.0;
   double lost_field_of_view = M_PI;
   /// Lost rule 2: this many consecutive scans whose batch NIS exceeds chi2(2k,
@@ -131,6 +135,11 @@ struct PipelineConfig {
   /// or two a scan by chance (which restarts rule 1's count). 0 disables the rule.
   int lost_share_window = 0;
   double lost_established_share = 0.15;
+  /// Rule 4's probe: a tracked scan with >= lost_min_observations observations and established
+  /// landmarks in view, of whose observations fewer than lost_established_share paired with
+  /// established landmarks, and no rule fired: the relocaliser probes (lost only when it puts the
+  /// vehicle where the estimate does not cover, as rule 1's probe). false: off.
+  bool lost_share_probe = false;
   /// Lost this many scans without a relocalisation: tracking resumes from the dead-reckoned
   /// estimate (the map unfreezes). 0: stay lost until found (localisation in a saved map).
   int lost_max_scans = 50;
@@ -189,7 +198,8 @@ struct LandmarkInfo {
   double diameter = std::numeric_limits<double>::quiet_NaN();  ///< running mean descriptor
   std::uint32_t times_observed = 0;                            ///< scans it was paired in
   int descriptor_count = 0;
-  std::int64_t created_scan = -1;  ///< scan that initialised it; -1: loaded from a map file
+  std::int64_t created_scan = -1;         ///< scan that initialised it; -1: loaded from a map file
+  std::int64_t created_informative = -1;  ///< informative scans before it (lost_recent_informative)
 };
 
 /// The pose of a scan processed while lost, re-derived once the pipeline is relocalised.
@@ -529,6 +539,7 @@ class SlamPipeline {
   int nis_streak_ = 0;
   int refused_streak_ = 0;
   std::deque<std::pair<int, int>> share_window_;  // rule 4: (established paired, observations)
+  std::int64_t informative_scans_ = 0;            // lost_recent_informative
   Chi2Table nis_chi2_;
 };
 

@@ -10,6 +10,7 @@
 #include <Eigen/LU>
 
 #include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/association/joint_ml.h"
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/chi2.h"
 
@@ -32,20 +33,6 @@ inline Eigen::Vector2d compensate(const Eigen::Vector2d& v, const Eigen::Vector2
                                   MeasurementKind kind) {
   if (kind == MeasurementKind::kCartesian) return v - v_bar;
   return Eigen::Vector2d(v(0) - v_bar(0), wrapAngle(v(1) - v_bar(1)));
-}
-
-// D^2 + ln|S| of a joint hypothesis (-2 ln N(v; 0, S) less its 2 pi term); infinite when S is not
-// positive definite, 0 for no pairs.
-double jointCost2(const AssociationContext& ctx, const std::vector<std::pair<int, int>>& pairs) {
-  if (pairs.empty()) return 0.0;
-  Eigen::VectorXd v;
-  Eigen::MatrixXd S;
-  ctx.jointInnovation(pairs, &v, &S);
-  const Eigen::LLT<Eigen::MatrixXd> llt(S);
-  if (llt.info() != Eigen::Success) return kInf;
-  double log_det = 0.0;
-  for (int k = 0; k < S.rows(); ++k) log_det += 2.0 * std::log(llt.matrixL()(k, k));
-  return v.dot(llt.solve(v)) + log_det;
 }
 
 inline std::int64_t cellOf(double v, double cell) {
@@ -104,6 +91,13 @@ void DJNN::configure(const ParameterSource& params) {
   p.shift_test = r.flag("shift_test", def.shift_test);
   p.shift_margin = r.nonNegative("shift_margin", def.shift_margin);
   p.landmark_density = r.nonNegative("landmark_density", def.landmark_density);
+  p.loop_closure_age = r.nonNegative("loop_closure_age", def.loop_closure_age);
+  p.joint_margin = r.nonNegative("joint_margin", def.joint_margin);
+  if (p.loop_closure_age > 0.0 && p.landmark_density + p.sensor.clutter_density <= 0.0) {
+    r.fail(
+        "loop_closure_age",
+        "needs landmark_density or clutter_density > 0 (the joint decision's \"not in the map\")");
+  }
   p.static_min_speed = r.nonNegative("static_min_speed", def.static_min_speed);
   p.bias_test = r.flag("bias_test", def.bias_test);
   p.bias_probability = r.probability("bias_probability", def.bias_probability);
@@ -144,6 +138,8 @@ void DJNN::configure(const ParameterSource& params) {
 
 void DJNN::reset() {
   evidence_.clear();
+  last_paired_.clear();
+  stamp_ = 0.0;
   bias_.clear();
   tentative_.clear();
   free_slots_.clear();
@@ -279,6 +275,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
     return result;
   }
   ++stats_.scans;
+  stamp_ = ctx.stamp();
   sensor_pose_ = ctx.sensorPose();
   obs_kind_.resize(m);
   for (int i = 0; i < m; ++i) obs_kind_[i] = ctx.observations()[i].kind;
@@ -401,14 +398,24 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
     }
   }
 
-  if (p_.shift_test) shiftTest(ctx);
-  if (p_.landmark_density > 0.0) densityTest(ctx);
+  // At a loop closure the joint decision replaces the shift and density tests (it weighs every
+  // hypothesis they weigh, and more).
+  if (p_.loop_closure_age <= 0.0 || !jointDecision(ctx)) {
+    if (p_.shift_test) shiftTest(ctx);
+    if (p_.landmark_density > 0.0) densityTest(ctx);
+  }
   countPairings();
   for (int i = 0; i < m; ++i) {
     if (assign_[i] >= 0) result.pair(i, ctx.landmarkId(cand_[assign_[i]]));
   }
   updateMapEvidence(ctx, &result);
   handleUnpaired(ctx, &result);
+  if (p_.loop_closure_age > 0.0) {
+    for (int i = 0; i < m; ++i) {
+      if (result.decision[i] == Decision::kPaired) last_paired_[result.landmark[i]] = stamp_;
+    }
+    for (LandmarkId id : result.remove) last_paired_.erase(id);
+  }
   return result;
 }
 
@@ -426,7 +433,7 @@ double DJNN::jointCost(const AssociationContext& ctx, const std::vector<int>& h)
       cost += gate_ + ctx.individual(i, cand_[assign_[i]]).log_det_S;
     }
   }
-  return cost + jointCost2(ctx, pairs);
+  return cost + jointInnovationCost(ctx, pairs);
 }
 
 // In a periodic layout (markers every 0.8 m along a corridor) a pose error of a spacing or more
@@ -512,7 +519,7 @@ void DJNN::densityTest(const AssociationContext& ctx) {
     for (int i = 0; i < m; ++i) {
       if (assign_[i] >= 0 && i != skip) pairs.emplace_back(i, cand_[assign_[i]]);
     }
-    return jointCost2(ctx, pairs) + 2.0 * static_cast<double>(pairs.size()) * log_2pi;
+    return jointInnovationCost(ctx, pairs) + 2.0 * static_cast<double>(pairs.size()) * log_2pi;
   };
   // Each pairing is judged given the others (-2 ln of its conditional likelihood: the joint cost
   // with it less the joint cost without it): a marker never seen before paired with an old one a
@@ -534,6 +541,53 @@ void DJNN::densityTest(const AssociationContext& ctx) {
     gated_[worst] = 1;
     ++stats_.density_withdrawn;
   }
+}
+
+// --- joint decision at loop closures ----------------------------------------------------------
+
+// Back on markers last seen long ago, the pose error can be a marker spacing or more: NN (with
+// eq. 6's compensation) and the shift test then pick one of several hypotheses that fit nearly
+// equally, and a wrong one corrupts the map for good. The joint maximum-likelihood assignment over
+// the gated candidates, "not in the map" scored by the densities, decides each observation only
+// when every hypothesis deciding it otherwise is joint_margin less likely; the rest are held
+// (rejected: no pairing, and no tentative feature that could duplicate an old landmark).
+// Returns false, changing nothing, when no gated landmark is older than loop_closure_age.
+bool DJNN::jointDecision(const AssociationContext& ctx) {
+  const int m = static_cast<int>(assign_.size());
+  JointMlProblem problem;
+  problem.null_cost = -2.0 * std::log(p_.landmark_density + p_.sensor.clutter_density);
+  bool old = false;
+  for (int i = 0; i < m; ++i) {
+    std::vector<int> gated;
+    for (int j : cand_) {
+      if (ctx.individual(i, j).mahalanobis > ambiguity_gate_) continue;
+      gated.push_back(j);
+      const auto it = last_paired_.find(ctx.landmarkId(j));
+      old = old || it == last_paired_.end() || stamp_ - it->second > p_.loop_closure_age;
+    }
+    if (gated.empty()) continue;
+    problem.obs.push_back(i);
+    problem.candidates.push_back(std::move(gated));
+  }
+  if (!old) return false;
+  ++stats_.joint_scans;
+  const JointMlDecision d = jointMaximumLikelihood(ctx, problem, p_.joint_margin);
+  stats_.joint_incomplete += !d.complete;
+  for (std::size_t k = 0; k < problem.obs.size(); ++k) {
+    const int i = problem.obs[k];
+    if (!d.complete || d.alternative_cost[k] < d.best_cost + p_.joint_margin) {
+      assign_[i] = -1;
+      gated_[i] = 1;
+      ++stats_.joint_held;
+    } else if (d.best[k] >= 0) {
+      assign_[i] =
+          static_cast<int>(std::lower_bound(cand_.begin(), cand_.end(), d.best[k]) - cand_.begin());
+    } else {
+      assign_[i] = -1;  // decided: not in the map
+      gated_[i] = 0;
+    }
+  }
+  return true;
 }
 
 // --- evidence (eq. 9) ----------------------------------------------------------------------------
@@ -950,6 +1004,7 @@ void DJNN::landmarkAdded(int obs, LandmarkId id) {
     t = pending_new_[obs];
   }
   evidence_[id] = t;
+  if (p_.loop_closure_age > 0.0) last_paired_[id] = stamp_;
 }
 
 // A tentative feature was placed from the pose estimate of its sightings, so its error is that

@@ -48,6 +48,9 @@ class DJNN : public DataAssociation {
     std::uint64_t shifts_taken = 0;       ///< scans whose pairing a likelier shift replaced
     std::uint64_t shifts_ambiguous = 0;   ///< scans with pairings withdrawn as ambiguous
     std::uint64_t density_withdrawn = 0;  ///< pairings withdrawn by the density test
+    std::uint64_t joint_scans = 0;        ///< loop-closure scans given the joint decision
+    std::uint64_t joint_held = 0;         ///< observations the joint decision left undecided
+    std::uint64_t joint_incomplete = 0;   ///< joint searches over budget (scan held)
   };
 
   /// Parameters (names as read in configure(); defaults in docs/djnn.md).
@@ -102,6 +105,8 @@ class DJNN : public DataAssociation {
     /// observation inside a wide gate says nothing, several that fit together do. Pairings are
     /// withdrawn, least likely first, until the rest pass; the withdrawn observations are rejected.
     double landmark_density = 0.0;
+    double loop_closure_age = 0.0;  ///< [s] joint decision when a gated landmark is older; 0: off
+    double joint_margin = 6.0;      ///< -2 ln of the likelihood ratio the joint best must beat
     /// Slowest speed [m/s] of a moving object that must be kept out of the map; 0 = off. With
     /// it, the sightings of a tentative feature are also fitted with a constant-velocity track:
     /// its velocity must pass v^T Sigma_v^-1 v <= chi2(2, static_probability) (else the feature
@@ -215,6 +220,7 @@ class DJNN : public DataAssociation {
   void shiftTest(const AssociationContext& ctx);
   /// The density test (Params::landmark_density) on assign_.
   void densityTest(const AssociationContext& ctx);
+  bool jointDecision(const AssociationContext& ctx);
   /// -2 ln likelihood of pairing observation `obs` with candidate `c` (or none: -1) for every
   /// paired observation of `h`, jointly: D^2 + ln|S| of the pairs, the gate plus ln|S_i| of the
   /// closest candidate for an observation left unpaired.
@@ -272,6 +278,8 @@ class DJNN : public DataAssociation {
 
   // State kept between scans.
   std::unordered_map<LandmarkId, double> evidence_;
+  std::unordered_map<LandmarkId, double> last_paired_;  ///< stamp (loop_closure_age > 0 only)
+  double stamp_ = 0.0;                                  ///< of the last scan
   std::unordered_map<LandmarkId, Bias> bias_;
   std::vector<Tentative> tentative_;
   std::vector<int> free_slots_;

@@ -1,0 +1,42 @@
+// Joint maximum-likelihood assignment of a scan's observations to map landmarks or to "not in the
+// map" (an unmapped landmark or clutter), by branch and bound over each observation's gated
+// candidates. Used by DJNN at loop closures (docs/djnn.md, "A joint decision at loop closures").
+#pragma once
+
+#include <cstddef>
+#include <utility>
+#include <vector>
+
+#include "ekf_slam/core/data_association.h"
+
+namespace ekf_slam {
+
+/// D^2 + ln|S| of the joint innovation of `pairs` (observation, landmark state index): -2 ln
+/// N(v; 0, S) less its 2 pi term. Infinite when S is not positive definite, 0 for no pairs.
+double jointInnovationCost(const AssociationContext& ctx,
+                           const std::vector<std::pair<int, int>>& pairs);
+
+struct JointMlProblem {
+  std::vector<int> obs;                      ///< observation indices of the scan
+  std::vector<std::vector<int>> candidates;  ///< per entry of obs: landmark state indices
+  double null_cost = 0.0;  ///< -2 ln(density per m^2) of "not in the map" for one observation
+  std::size_t max_nodes = 200000;  ///< search budget per search (all searches: m + 1)
+};
+
+struct JointMlDecision {
+  bool complete = false;   ///< every search finished within the budget
+  std::vector<int> best;   ///< per entry of obs: landmark state index, or -1 (not in the map)
+  double best_cost = 0.0;  ///< -2 ln of the best hypothesis' likelihood
+  /// Per entry of obs: the least cost of a hypothesis deciding that observation otherwise than
+  /// `best` (infinite if there is none within `best_cost + margin`).
+  std::vector<double> alternative_cost;
+  std::size_t nodes = 0;
+};
+
+/// One-to-one hypotheses: each observation takes one of its candidates or none. Cost of a
+/// hypothesis: -2 ln N(v; 0, S) of its pairs jointly (full covariance) plus `null_cost` per
+/// observation left out. Alternatives are searched only up to `best_cost + margin`.
+JointMlDecision jointMaximumLikelihood(const AssociationContext& ctx, const JointMlProblem& problem,
+                                       double margin);
+
+}  // namespace ekf_slam

@@ -1,0 +1,163 @@
+// Joint maximum-likelihood assignment by branch and bound. See joint_ml.h and docs/djnn.md.
+#include "ekf_slam/core/association/joint_ml.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+
+namespace ekf_slam {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Depth-first search over the observations (fewest options first), each option ordered by its
+// individual cost so that good hypotheses are met early and the bound prunes the rest.
+class Search {
+ public:
+  Search(const AssociationContext& ctx, const JointMlProblem& problem)
+      : ctx_(ctx), problem_(problem), log_2pi2_(2.0 * std::log(2.0 * M_PI)) {
+    const int m = static_cast<int>(problem.obs.size());
+    order_.resize(m);
+    for (int k = 0; k < m; ++k) order_[k] = k;
+    std::stable_sort(order_.begin(), order_.end(), [&](int a, int b) {
+      return problem.candidates[a].size() < problem.candidates[b].size();
+    });
+    options_.resize(m);
+    suffix_bound_.assign(m + 1, 0.0);
+    for (int d = m - 1; d >= 0; --d) {
+      const int k = order_[d];
+      const int obs = problem.obs[k];
+      std::vector<std::pair<double, int>> scored{{problem.null_cost, -1}};
+      for (int j : problem.candidates[k]) {
+        const AssociationContext::Individual ind = ctx.individual(obs, j);
+        scored.emplace_back(ind.mahalanobis + ind.log_det_S + log_2pi2_, j);
+      }
+      std::stable_sort(scored.begin(), scored.end());
+      for (const auto& s : scored) options_[d].push_back(s.second);
+      // A pairing's cost given the others is D^2 + ln|S_cond| + 2 ln 2 pi with S_cond >= R:
+      // at least ln|R| + 2 ln 2 pi. "Not in the map" costs null_cost.
+      const double det_r = ctx.observations()[obs].R.determinant();
+      const double pair_bound = det_r > 0.0 ? std::log(det_r) + log_2pi2_ : -kInf;
+      suffix_bound_[d] = suffix_bound_[d + 1] + std::min(problem.null_cost, pair_bound);
+    }
+  }
+
+  // Least-cost hypothesis below `limit`, with entry `forbid_entry` (or -1) not taking
+  // `forbid_value`. Returns false if the node budget ran out.
+  bool run(double limit, int forbid_entry, int forbid_value, std::vector<int>* best,
+           double* best_cost, std::size_t* nodes) {
+    limit_ = limit;
+    forbid_entry_ = forbid_entry;
+    forbid_value_ = forbid_value;
+    found_ = false;
+    nodes_ = 0;
+    aborted_ = false;
+    current_.assign(order_.size(), -1);
+    pairs_.clear();
+    descend(0, 0.0, 0);
+    *nodes += nodes_;
+    if (found_) {
+      *best = best_;
+      *best_cost = limit_;
+    }
+    return !aborted_;
+  }
+
+  bool found() const { return found_; }
+
+ private:
+  void descend(int d, double cost, int nulls) {
+    if (aborted_) return;
+    if (++nodes_ > problem_.max_nodes) {
+      aborted_ = true;
+      return;
+    }
+    if (!(cost + suffix_bound_[d] < limit_)) return;
+    const int m = static_cast<int>(order_.size());
+    if (d == m) {
+      limit_ = cost;
+      best_ = current_;
+      found_ = true;
+      return;
+    }
+    const int k = order_[d];
+    for (int j : options_[d]) {
+      if (k == forbid_entry_ && j == forbid_value_) continue;
+      current_[k] = j;
+      if (j < 0) {
+        descend(d + 1, cost + problem_.null_cost, nulls + 1);
+        continue;
+      }
+      bool used = false;
+      for (const auto& p : pairs_) used = used || p.second == j;
+      if (used) continue;
+      pairs_.emplace_back(problem_.obs[k], j);
+      const double c = jointInnovationCost(ctx_, pairs_) +
+                       log_2pi2_ * static_cast<double>(pairs_.size()) + problem_.null_cost * nulls;
+      descend(d + 1, c, nulls);
+      pairs_.pop_back();
+    }
+    current_[k] = -1;
+  }
+
+  const AssociationContext& ctx_;
+  const JointMlProblem& problem_;
+  const double log_2pi2_;
+  std::vector<int> order_;                 ///< search depth -> entry of problem.obs
+  std::vector<std::vector<int>> options_;  ///< per depth: landmark indices and -1, best first
+  std::vector<double> suffix_bound_;       ///< per depth: least cost of the entries from there
+  double limit_ = kInf;
+  int forbid_entry_ = -1, forbid_value_ = -2;
+  bool found_ = false, aborted_ = false;
+  std::size_t nodes_ = 0;
+  std::vector<int> current_, best_;
+  std::vector<std::pair<int, int>> pairs_;
+};
+
+}  // namespace
+
+double jointInnovationCost(const AssociationContext& ctx,
+                           const std::vector<std::pair<int, int>>& pairs) {
+  if (pairs.empty()) return 0.0;
+  Eigen::VectorXd v;
+  Eigen::MatrixXd S;
+  ctx.jointInnovation(pairs, &v, &S);
+  const Eigen::LLT<Eigen::MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) return kInf;
+  double log_det = 0.0;
+  for (int k = 0; k < S.rows(); ++k) log_det += 2.0 * std::log(llt.matrixL()(k, k));
+  return v.dot(llt.solve(v)) + log_det;
+}
+
+JointMlDecision jointMaximumLikelihood(const AssociationContext& ctx, const JointMlProblem& problem,
+                                       double margin) {
+  const int m = static_cast<int>(problem.obs.size());
+  JointMlDecision out;
+  out.best.assign(m, -1);
+  out.alternative_cost.assign(m, kInf);
+  out.best_cost = problem.null_cost * m;  // everything out of the map: always a hypothesis
+  if (m == 0) {
+    out.complete = true;
+    return out;
+  }
+  Search search(ctx, problem);
+  out.complete = search.run(kInf, -1, -2, &out.best, &out.best_cost, &out.nodes);
+  if (!out.complete) return out;
+  // Each observation's decision against the best hypothesis that decides it otherwise.
+  for (int k = 0; k < m; ++k) {
+    std::vector<int> alt;
+    double cost = kInf;
+    if (!search.run(out.best_cost + margin, k, out.best[k], &alt, &cost, &out.nodes)) {
+      out.complete = false;
+      return out;
+    }
+    if (search.found()) out.alternative_cost[k] = cost;
+  }
+  return out;
+}
+
+}  // namespace ekf_slam

@@ -1,0 +1,183 @@
+// DJNN's joint decision at loop closures (docs/djnn.md, "A joint decision at loop closures"): the
+// branch and bound finds the joint maximum-likelihood assignment (checked against enumeration), a
+// shifted scan that one unambiguous marker contradicts loses, a near-tie is held undecided (no
+// pairing, no tentative feature), and scans on landmarks paired recently are left to NN.
+#include <cmath>
+#include <functional>
+#include <map>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "association_fixtures.h"
+#include "djnn_fixtures.h"
+#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/joint_ml.h"
+
+namespace ekf_slam {
+namespace {
+
+using assoc_test::makeDjnn;
+using assoc_test::Scene;
+
+const std::map<std::string, std::string> kJoint = {{"loop_closure_age", "30"},
+                                                   {"landmark_density", "0.3"}};
+
+// A row of markers 0.8 m apart; the pose estimate is 1 m uncertain along it.
+void periodicRow(Scene* s, std::vector<int>* row) {
+  s->pose_cov = assoc_test::poseCov(1.0, 0.05, 0.005);
+  s->R = assoc_test::diag2(0.03, deg2rad(1));
+  for (int k = 0; k < 6; ++k) row->push_back(s->addLandmark({2.0 + 0.8 * k, 0.5}));
+}
+
+TEST(JointMaximumLikelihood, BranchAndBoundFindsTheEnumeratedOptimum) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    Scene s;
+    s.pose_cov = assoc_test::poseCov(0.6, 0.6, 0.05);
+    for (int j = 0; j < 8; ++j) s.addLandmark({4.0 + 2.0 * u(rng), 2.0 * u(rng)});
+    s.true_pose = Eigen::Vector3d(0.5 * u(rng), 0.5 * u(rng), 0.03 * u(rng));
+    s.build();
+    for (int j = 0; j < 4; ++j) s.observeLandmark(j, &rng);
+    s.observePoint({4.0 + 2.0 * u(rng), 2.0 * u(rng)}, &rng);
+    const AssociationContext ctx = s.context(0);
+    JointMlProblem problem;
+    problem.null_cost = -2.0 * std::log(0.3);
+    for (int i = 0; i < 5; ++i) {
+      problem.obs.push_back(i);
+      problem.candidates.emplace_back();
+      for (int j = 0; j < 8; ++j) {
+        if (ctx.individual(i, j).mahalanobis <= 13.8) problem.candidates.back().push_back(j);
+      }
+    }
+    const JointMlDecision d = jointMaximumLikelihood(ctx, problem, 6.0);
+    ASSERT_TRUE(d.complete);
+    // Enumeration of every one-to-one hypothesis.
+    double best = 1e300;
+    std::vector<int> h(5, -1);
+    std::function<void(int)> all = [&](int k) {
+      if (k == 5) {
+        std::vector<std::pair<int, int>> pairs;
+        int nulls = 0;
+        for (int i = 0; i < 5; ++i) {
+          if (h[i] < 0) {
+            ++nulls;
+          } else {
+            pairs.emplace_back(i, h[i]);
+          }
+        }
+        best = std::min(best, jointInnovationCost(ctx, pairs) +
+                                  2.0 * std::log(2.0 * M_PI) * static_cast<double>(pairs.size()) +
+                                  problem.null_cost * nulls);
+        return;
+      }
+      h[k] = -1;
+      all(k + 1);
+      for (int j : problem.candidates[k]) {
+        bool used = false;
+        for (int i = 0; i < k; ++i) used = used || h[i] == j;
+        if (used) continue;
+        h[k] = j;
+        all(k + 1);
+      }
+      h[k] = -1;
+    };
+    all(0);
+    EXPECT_NEAR(d.best_cost, best, 1e-9) << trial;
+    for (std::size_t k = 0; k < 5; ++k) EXPECT_GE(d.alternative_cost[k], d.best_cost) << trial;
+  }
+}
+
+// The pose is off by one spacing: NN pairs the row one marker along. A marker off the row (the
+// corridor's corner) is seen too; the shifted hypothesis must leave it out of the map (or pair it
+// 0.8 m off given the row), so the true assignment is far likelier and is taken.
+TEST(DJNNJoint, ShiftedRowLosesToAMarkerThatBreaksThePeriod) {
+  for (const bool joint : {false, true}) {
+    Scene s;
+    std::vector<int> row;
+    periodicRow(&s, &row);
+    const int corner = s.addLandmark({3.6, -1.0});
+    s.true_pose = Eigen::Vector3d(0.8, 0, 0);
+    s.build();
+    DJNN d = makeDjnn(joint ? kJoint : std::map<std::string, std::string>{});
+    for (int k = 1; k < 4; ++k) s.observeLandmark(row[k]);
+    s.observeLandmark(corner);
+    const AssociationResult r = d.associate(s.context(0));
+    int right = 0;
+    for (int i = 0; i < 4; ++i) {
+      right += r.decision[i] == Decision::kPaired && r.landmark[i] == Scene::idOf(s.truth[i]);
+    }
+    if (joint) {
+      EXPECT_EQ(right, 4);
+      EXPECT_EQ(d.stats().joint_scans, 1u);
+      EXPECT_EQ(d.stats().joint_held, 0u);
+    } else {
+      EXPECT_LT(right, 4);  // the scene is one NN gets wrong
+    }
+  }
+}
+
+// Half a spacing off and nothing but the row in view: the true and the shifted assignment fit
+// equally. Nothing may be paired, and nothing may start a tentative feature (a duplicate).
+TEST(DJNNJoint, NearTieIsHeldUndecided) {
+  for (const bool joint : {false, true}) {
+    Scene s;
+    std::vector<int> row;
+    periodicRow(&s, &row);
+    s.true_pose = Eigen::Vector3d(0.4, 0, 0);
+    s.build();
+    DJNN d = makeDjnn(joint ? kJoint : std::map<std::string, std::string>{});
+    for (int k = 1; k < 4; ++k) s.observeLandmark(row[k]);
+    const AssociationResult r = d.associate(s.context(0));
+    int paired = 0;
+    for (Decision x : r.decision) paired += x == Decision::kPaired;
+    if (joint) {
+      EXPECT_EQ(paired, 0);
+      for (Decision x : r.decision) EXPECT_EQ(x, Decision::kRejected);
+      EXPECT_EQ(d.stats().joint_held, 3u);
+      EXPECT_TRUE(d.tentativeFeatures().empty());
+    } else {
+      EXPECT_EQ(paired, 3);
+    }
+  }
+}
+
+// Landmarks paired less than loop_closure_age ago: no loop closure, NN's pairing stands.
+TEST(DJNNJoint, RecentlyPairedLandmarksAreLeftToNN) {
+  Scene s;
+  s.pose_cov = assoc_test::poseCov(0.05, 0.05, 0.005);
+  s.R = assoc_test::diag2(0.03, deg2rad(1));
+  for (int k = 0; k < 3; ++k) s.addLandmark({3.0, -1.0 + k});
+  s.build();
+  DJNN d = makeDjnn(kJoint);
+  for (int k = 0; k < 3; ++k) s.observeLandmark(k);
+  d.associate(s.context(0.0));  // never paired before: old, decided jointly
+  EXPECT_EQ(d.stats().joint_scans, 1u);
+  const AssociationResult r = d.associate(s.context(10.0));
+  EXPECT_EQ(d.stats().joint_scans, 1u);
+  for (Decision x : r.decision) EXPECT_EQ(x, Decision::kPaired);
+  d.associate(s.context(41.0));  // 31 s after the last pairing: a loop closure again
+  EXPECT_EQ(d.stats().joint_scans, 2u);
+}
+
+TEST(DJNNJoint, OffByDefaultAndValidated) {
+  DJNN d;
+  EXPECT_EQ(d.params().loop_closure_age, 0.0);
+  EXPECT_THROW(makeDjnn({{"loop_closure_age", "-1"}}), ParameterError);
+  EXPECT_THROW(makeDjnn({{"loop_closure_age", "30"}}), ParameterError);  // no density
+  EXPECT_THROW(makeDjnn({{"joint_margin", "-1"}}), ParameterError);
+  EXPECT_NO_THROW(makeDjnn(kJoint));
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

@@ -325,6 +325,45 @@ TEST(FGCBB, OverlappingGroupsSeedOneGroupPerObservation) {
   }
 }
 
+// group_coverage bounds the overlapping groups: a point seeds one only while it is in fewer groups
+// than that, so a scan of m observations gets fewer than m searches, every observation still in
+// one, and the same answer.
+TEST(FGCBB, GroupCoverageSeedsFewerGroupsAndKeepsEveryObservation) {
+  const World w = reloc_test::randomMap(300, 120.0, 2.5, 20);
+  const Eigen::Vector3d truth(60, 60, 0.2);
+  std::vector<LandmarkId> ids;
+  const auto obs = w.observe(truth, 15.0, &ids);
+  ASSERT_GE(obs.size(), 13u);
+  std::size_t all_seeds = 0;
+  for (const std::string coverage : {"0", "1", "2"}) {
+    MapParameterSource p = params("overlapping_groups", "true");
+    p.set("group_coverage", coverage);
+    FGCBB f;
+    f.configure(p);
+    f.setMap(w.map);
+    expectCorrect(f.relocalise(obs, w.sensor_offset, nullptr), truth, ids, 10);
+    const auto& groups = f.lastGroups();
+    std::vector<int> in_groups(obs.size(), 0);
+    for (const auto& g : groups) {
+      EXPECT_LE(g.size(), 6u);
+      for (const int i : g) ++in_groups[i];
+    }
+    for (std::size_t i = 0; i < obs.size(); ++i)
+      EXPECT_GE(in_groups[i], 1) << "observation " << i << " in no group, coverage " << coverage;
+    if (coverage == "0") {
+      all_seeds = groups.size();
+    } else {
+      EXPECT_LT(groups.size(), all_seeds) << "coverage " << coverage;
+      // A seed is taken only while it is in fewer than `coverage` groups.
+      std::vector<int> before(obs.size(), 0);
+      for (const auto& g : groups) {
+        EXPECT_LT(before[g.front()], std::stoi(coverage)) << "coverage " << coverage;
+        for (const int i : g) ++before[i];
+      }
+    }
+  }
+}
+
 // range_sigma / bearing_sigma replace a loose R in the constraints: the observed distances here
 // are stretched by 4 %, which a 3 deg bearing noise hides and a 0.2 deg one does not.
 TEST_P(Relocalisers, OwnObservationNoiseTightensTheConstraints) {

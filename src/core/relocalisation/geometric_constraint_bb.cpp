@@ -39,6 +39,7 @@ void GeometricConstraintBB::configure(const ParameterSource& source) {
   p.max_observation_range = r.nonNegative("max_observation_range", d.max_observation_range);
   p.group_size = r.integer("group_size", d.group_size, 0, 30);
   p.overlapping_groups = r.flag("overlapping_groups", d.overlapping_groups);
+  p.group_coverage = r.integer("group_coverage", d.group_coverage, 0, 30);
   p.use_locality = r.flag("use_locality", d.use_locality);
   p.unary_probability = r.probability("unary_probability", d.unary_probability);
   p.descriptor_sigma = r.positive("descriptor_sigma", d.descriptor_sigma);
@@ -180,9 +181,12 @@ void GeometricConstraintBB::makeGroups() {
   // seeds a group of its nearest points, assigned or not; a set met before is not searched again.
   const bool overlap = params_.overlapping_groups;
   std::vector<char> assigned(n, 0);
+  std::vector<int> covered(n, 0);  // groups each point is in
+  const int coverage = overlap ? params_.group_coverage : 0;
   std::vector<std::vector<int>> seen_sets;
   for (const int seed : order) {
     if (assigned[seed] && !overlap) continue;
+    if (coverage > 0 && covered[seed] >= coverage) continue;
     std::vector<int> rest;
     for (const int i : order) {
       if ((overlap || !assigned[i]) && i != seed) rest.push_back(i);
@@ -205,6 +209,7 @@ void GeometricConstraintBB::makeGroups() {
       if (std::find(seen_sets.begin(), seen_sets.end(), set) != seen_sets.end()) continue;
       seen_sets.push_back(std::move(set));
     }
+    for (const int i : group) ++covered[i];
     last_groups_.push_back(group);
   }
 }

@@ -38,6 +38,9 @@
 //   overlapping_groups  [false]  every observation seeds a group of its N - 1 nearest (instead
 //                                of a partition): a scene whose mapped trees do not fall in
 //                                one partition group is still found, at m searches per call
+//   group_coverage      [0]      with overlapping_groups: a point seeds a group only while it
+//                                is in fewer than this many groups; 0: every point seeds one.
+//                                Bounds the searches of a scan with many observations
 //   use_locality        [true / false]  C_ij = 1 required for map pairs
 //   unary_probability   [0.95]   unary gate chi2(1, p)
 //   descriptor_sigma    [0.1]    std dev of one descriptor (trunk diameter) [m]
@@ -83,6 +86,7 @@ struct GeometricConstraintParams {
   double max_observation_range = 0.0;
   int group_size = 6;
   bool overlapping_groups = false;
+  int group_coverage = 0;
   bool use_locality = true;
   double unary_probability = 0.95;
   double descriptor_sigma = 0.1;

@@ -47,6 +47,13 @@ inline std::int64_t packCell(std::int64_t ix, std::int64_t iy) {
                                    (static_cast<std::uint64_t>(iy) & 0xffffffffULL));
 }
 
+// -2 ln of "a landmark not in the map, or clutter" per observation: the density of unmapped
+// landmarks plus the clutter density (per m^2), the null hypothesis of the density test and of
+// the joint decision.
+double unmappedCost(const DJNN::Params& p) {
+  return -2.0 * std::log(p.landmark_density + p.sensor.clutter_density);
+}
+
 }  // namespace
 
 DJNN::DJNN() {
@@ -510,7 +517,7 @@ void DJNN::shiftTest(const AssociationContext& ctx) {
 // densities of the observation noise, far above lambda^k; a lone pairing does not.
 void DJNN::densityTest(const AssociationContext& ctx) {
   const int m = static_cast<int>(assign_.size());
-  const double null_cost = -2.0 * std::log(p_.landmark_density + p_.sensor.clutter_density);
+  const double null_cost = unmappedCost(p_);
   const double log_2pi = std::log(2.0 * M_PI);
   // -2 ln N(v; 0, S) of the pairings of assign_ but `skip` (-1: none).
   std::vector<std::pair<int, int>> pairs;
@@ -555,7 +562,7 @@ void DJNN::densityTest(const AssociationContext& ctx) {
 bool DJNN::jointDecision(const AssociationContext& ctx) {
   const int m = static_cast<int>(assign_.size());
   JointMlProblem problem;
-  problem.null_cost = -2.0 * std::log(p_.landmark_density + p_.sensor.clutter_density);
+  problem.null_cost = unmappedCost(p_);
   bool old = false;
   for (int i = 0; i < m; ++i) {
     std::vector<int> gated;

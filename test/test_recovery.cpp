@@ -391,6 +391,57 @@ TEST(Recovery, TheLostPathIsReDerivedFromTheFix) {
   EXPECT_TRUE(d.run(1).lost_path.empty());  // tracking: nothing to re-derive
 }
 
+// A kidnap seen late: the estimate jumps, the pipeline tracks three scans at the wrong pose before
+// it goes lost. At the fix those three are carried back by the odometry as well (`tracked`), the
+// lost scans after them as before, and no scan from before the jump (its estimate agrees with the
+// fix carried back). Without a jump a forced relocalisation re-derives no tracked scan.
+TEST(Recovery, TheTrackedScansBeforeGoingLostAreReDerivedWhenTheFixContradictsThem) {
+  for (const bool jump : {true, false}) {
+    SCOPED_TRACE(jump ? "jump" : "no jump");
+    auto never = std::make_shared<NeverFound>();
+    Drive d(true, {20, 30, 0.1}, never);
+    d.run(30);
+    if (jump) d.pipeline().injectPoseJump({8.0, -5.0, 1.5});  // the estimate, not the vehicle
+    std::vector<Eigen::Vector3d> truths;
+    std::vector<std::uint32_t> scans;
+    std::size_t tracked_after_jump = 0;
+    for (int k = 0; k < 3; ++k) {
+      const ScanReport r = d.run(1);
+      truths.push_back(d.truth());
+      scans.push_back(r.scan);
+      tracked_after_jump += !r.lost && !r.became_lost;
+    }
+    if (!d.pipeline().lost()) {
+      ASSERT_TRUE(d.pipeline().requestRelocalisation());
+    }
+    for (int k = 0; k < 5; ++k) {
+      const ScanReport r = d.run(1);
+      ASSERT_TRUE(r.lost);
+      truths.push_back(d.truth());
+      scans.push_back(r.scan);
+    }
+    d.pipeline().setRelocaliser(
+        std::make_shared<WrongThenRight>(&d.truth(), std::vector<int>{}));  // the truth
+    const ScanReport fixed = d.run(1);
+    ASSERT_TRUE(fixed.relocalised);
+    const std::size_t expected_tracked = jump ? tracked_after_jump : 0;
+    EXPECT_EQ(d.pipeline().counters().rederived_tracked_poses, expected_tracked);
+    // Tracked scans not re-derived (none lost among the first three without a jump).
+    const std::size_t skip = jump ? 0 : 3;
+    ASSERT_EQ(fixed.lost_path.size(), truths.size() - skip);
+    for (std::size_t k = 0; k < fixed.lost_path.size(); ++k) {
+      const LostPathPose& p = fixed.lost_path[k];
+      EXPECT_EQ(p.scan, scans[k + skip]);
+      EXPECT_EQ(p.tracked, k < expected_tracked) << k;
+      EXPECT_LT((p.pose.head<2>() - truths[k + skip].head<2>()).norm(), 0.05) << k;
+      EXPECT_LT(std::abs(wrapAngle(p.pose.z() - truths[k + skip].z())), 1e-3) << k;
+    }
+    if (jump) {
+      EXPECT_EQ(expected_tracked, 3u);  // the jump is seen by no rule in three scans
+    }
+  }
+}
+
 // The caller's trajectory rows take the lost path by stamp (within 1 us); others stay.
 TEST(Recovery, ApplyLostPathReplacesTheRowsOfTheLostScans) {
   const std::vector<double> stamps{1.0, 2.0, 3.0000004, 4.0, 5.0};  // 5.0: the fix's row

@@ -450,7 +450,7 @@ void SlamPipeline::rememberPose(const ScanReport& report) {
     return;
   }
   tracked_.push_back({report.scan, report.stamp, informative_scans_, pose(), poseCovariance(),
-                      odometry_, Eigen::Matrix3d::Zero()});
+                      odometry_, Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero()});
   // Only the scans a rule or probe could still take for the start of a kidnap: those within
   // lost_recent_scans (in the same count as recent()).
   const auto old = [this, &report](const TrackedPose& t) {
@@ -474,8 +474,13 @@ std::vector<LostPathPose> SlamPipeline::rederiveTracked(
   }();
   const double gate = chi2Quantile(kProbeProbability, 3);
   // Newest first, up to the first scan whose estimate the carried-back fix agrees with: there the
-  // estimate was still right, and every older one with it.
+  // estimate was still right, and every older one with it. Q: the current pose's covariance given
+  // that scan's by the odometry, Phi: d now / d (the newer scan), chained back one scan at a time.
+  Eigen::Matrix3d Q = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d Phi = Eigen::Matrix3d::Identity();
   for (auto t = tracked_.rbegin(); t != tracked_.rend(); ++t) {
+    Q += Phi * t->Q * Phi.transpose();
+    Phi = Phi * t->F;
     const Eigen::Vector3d v = composePose(inversePose(odometry_), t->odometry);
     Eigen::Vector3d carried = composePose(fixed, v);
     carried.z() = wrapAngle(carried.z());
@@ -487,7 +492,7 @@ std::vector<LostPathPose> SlamPipeline::rederiveTracked(
     Eigen::Matrix3d J = Eigen::Matrix3d::Identity();
     J(0, 2) = -lever.y();
     J(1, 2) = lever.x();
-    const Eigen::Matrix3d S = t->covariance + J * P * J.transpose() + Jr * t->Q * Jr.transpose();
+    const Eigen::Matrix3d S = t->covariance + J * P * J.transpose() + Jr * Q * Jr.transpose();
     if (d.dot(S.ldlt().solve(d)) <= gate) break;
     path.push_back({t->scan, t->stamp, carried, /*tracked=*/true});
   }
@@ -631,7 +636,11 @@ void SlamPipeline::applyPendingMotion() const {
   // The odometry alone, for re-deriving past poses from a fix (rederiveTracked).
   odometry_ = composePose(odometry_, composePose(inversePose(ekf_.pose()), pending_.pose));
   odometry_.z() = wrapAngle(odometry_.z());
-  for (TrackedPose& t : tracked_) t.Q = pending_.F * t.Q * pending_.F.transpose() + pending_.Q;
+  if (!tracked_.empty()) {
+    TrackedPose& t = tracked_.back();
+    t.Q = pending_.F * t.Q * pending_.F.transpose() + pending_.Q;
+    t.F = pending_.F * t.F;
+  }
   for (HeldFix& h : held_) h.Q = pending_.F * h.Q * pending_.F.transpose() + pending_.Q;
   // Steps are checked when composed, so this cannot fail.
   if (cekf_) {

@@ -553,9 +553,13 @@ class SlamPipeline {
     Eigen::Vector3d pose;      // the estimate after the scan's update
     Eigen::Matrix3d covariance;
     Eigen::Vector3d odometry;  // odometry_ at the scan
-    Eigen::Matrix3d Q;         // the current pose's given this one's, by the odometry (map frame)
+    // The odometry from this scan to the next one's (the newest: to now), composed as pending_:
+    // next = f(this), F = df/dthis, Q its noise (map frame). One composition per prediction,
+    // into the newest only; rederiveTracked chains them.
+    Eigen::Matrix3d F;
+    Eigen::Matrix3d Q;
   };
-  mutable std::deque<TrackedPose> tracked_;  // mutable: the odometry grows their Q
+  mutable std::deque<TrackedPose> tracked_;  // mutable: the odometry grows the newest's F, Q
   // The odometry alone integrated (the estimate's motion without updates, jumps or fixes), in an
   // arbitrary frame: the relative motion between any two scans, tracked or lost.
   mutable Eigen::Vector3d odometry_ = Eigen::Vector3d::Zero();

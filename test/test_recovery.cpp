@@ -359,6 +359,23 @@ TEST(Recovery, MapIsFrozenWhileLost) {
   EXPECT_FALSE(d.pipeline().lost());
 }
 
+// The relocaliser replaced by one that finds the truth; the next scan's report.
+ScanReport fixAtTheTruth(Drive& d) {
+  d.pipeline().setRelocaliser(std::make_shared<WrongThenRight>(&d.truth(), std::vector<int>{}));
+  return d.run(1);
+}
+
+// Re-derived pose k is that of scans[k + skip], within 5 cm and 1 mrad of truths[k + skip].
+void expectWhereTheVehicleWas(const std::vector<LostPathPose>& path,
+                              const std::vector<std::uint32_t>& scans,
+                              const std::vector<Eigen::Vector3d>& truths, std::size_t skip) {
+  for (std::size_t k = 0; k < path.size(); ++k) {
+    EXPECT_EQ(path[k].scan, scans[k + skip]);
+    EXPECT_LT((path[k].pose.head<2>() - truths[k + skip].head<2>()).norm(), 0.05) << k;
+    EXPECT_LT(std::abs(wrapAngle(path[k].pose.z() - truths[k + skip].z())), 1e-3) << k;
+  }
+}
+
 // While lost the estimate is dead-reckoned from the wrong pose; once relocalised, each lost
 // scan's pose is carried back from the fix by the odometry between them: where the vehicle was.
 TEST(Recovery, TheLostPathIsReDerivedFromTheFix) {
@@ -377,18 +394,57 @@ TEST(Recovery, TheLostPathIsReDerivedFromTheFix) {
     truths.push_back(d.truth());
     scans.push_back(r.scan);
   }
-  d.pipeline().setRelocaliser(
-      std::make_shared<WrongThenRight>(&d.truth(), std::vector<int>{}));  // the truth
-  const ScanReport fixed = d.run(1);
+  const ScanReport fixed = fixAtTheTruth(d);
   ASSERT_TRUE(fixed.relocalised);
   ASSERT_EQ(fixed.lost_path.size(), truths.size());
-  for (std::size_t k = 0; k < truths.size(); ++k) {
-    EXPECT_EQ(fixed.lost_path[k].scan, scans[k]);
-    EXPECT_LT((fixed.lost_path[k].pose.head<2>() - truths[k].head<2>()).norm(), 0.05) << k;
-    EXPECT_LT(std::abs(wrapAngle(fixed.lost_path[k].pose.z() - truths[k].z())), 1e-3) << k;
-  }
+  expectWhereTheVehicleWas(fixed.lost_path, scans, truths, 0);
   EXPECT_EQ(d.pipeline().counters().lost_path_poses, truths.size());
   EXPECT_TRUE(d.run(1).lost_path.empty());  // tracking: nothing to re-derive
+}
+
+// A kidnap seen late: the estimate jumps, the pipeline tracks three scans at the wrong pose before
+// it goes lost. At the fix those three are carried back by the odometry as well (`tracked`), the
+// lost scans after them as before, and no scan from before the jump (its estimate agrees with the
+// fix carried back). Without a jump a forced relocalisation re-derives no tracked scan.
+TEST(Recovery, TheTrackedScansBeforeGoingLostAreReDerivedWhenTheFixContradictsThem) {
+  for (const bool jump : {true, false}) {
+    SCOPED_TRACE(jump ? "jump" : "no jump");
+    auto never = std::make_shared<NeverFound>();
+    Drive d(true, {20, 30, 0.1}, never);
+    d.run(30);
+    if (jump) d.pipeline().injectPoseJump({8.0, -5.0, 1.5});  // the estimate, not the vehicle
+    std::vector<Eigen::Vector3d> truths;
+    std::vector<std::uint32_t> scans;
+    std::size_t tracked_after_jump = 0;
+    for (int k = 0; k < 3; ++k) {
+      const ScanReport r = d.run(1);
+      truths.push_back(d.truth());
+      scans.push_back(r.scan);
+      tracked_after_jump += !r.lost && !r.became_lost;
+    }
+    if (!d.pipeline().lost()) {
+      ASSERT_TRUE(d.pipeline().requestRelocalisation());
+    }
+    for (int k = 0; k < 5; ++k) {
+      const ScanReport r = d.run(1);
+      ASSERT_TRUE(r.lost);
+      truths.push_back(d.truth());
+      scans.push_back(r.scan);
+    }
+    const ScanReport fixed = fixAtTheTruth(d);
+    ASSERT_TRUE(fixed.relocalised);
+    const std::size_t expected_tracked = jump ? tracked_after_jump : 0;
+    EXPECT_EQ(d.pipeline().counters().rederived_tracked_poses, expected_tracked);
+    // Tracked scans not re-derived (none lost among the first three without a jump).
+    const std::size_t skip = jump ? 0 : 3;
+    ASSERT_EQ(fixed.lost_path.size(), truths.size() - skip);
+    expectWhereTheVehicleWas(fixed.lost_path, scans, truths, skip);
+    for (std::size_t k = 0; k < fixed.lost_path.size(); ++k)
+      EXPECT_EQ(fixed.lost_path[k].tracked, k < expected_tracked) << k;
+    if (jump) {
+      EXPECT_EQ(expected_tracked, 3u);  // the jump is seen by no rule in three scans
+    }
+  }
 }
 
 // The caller's trajectory rows take the lost path by stamp (within 1 us); others stay.

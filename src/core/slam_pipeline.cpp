@@ -101,6 +101,7 @@ void SlamPipeline::reset() {
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   share_window_.clear();
   informative_scans_ = 0;
+  tracked_.clear();
   ++counters_.resets;
 }
 
@@ -147,6 +148,7 @@ void SlamPipeline::enterLost(bool pose_unknown) {
   share_window_.clear();
   window_.clear();  // scans from before are at a pose now in doubt
   lost_path_.clear();
+  if (pose_unknown) tracked_.clear();    // a new map: the scans before say nothing about the pose
   relocaliser_->setMap(mapLandmarks());  // frozen until found
 }
 
@@ -430,14 +432,72 @@ void SlamPipeline::relocaliseScan(ScanReport* report) {
     unpaired_streak_ = nis_streak_ = 0;
     held_.clear();
     lost_path_.clear();  // tracking resumes from the dead-reckoned path: nothing to correct
+    tracked_.clear();
   }
-  rememberLostPose(*report);
+  rememberPose(*report);
 }
 
 void SlamPipeline::rememberLostPose(const ScanReport& report) {
   if (!lost_) return;
   if (lost_path_.size() >= kMaxLostPath) lost_path_.pop_front();
   lost_path_.push_back({report.scan, report.stamp, pose()});
+}
+
+void SlamPipeline::rememberPose(const ScanReport& report) {
+  if (!relocaliser_) return;
+  if (lost_) {
+    rememberLostPose(report);
+    return;
+  }
+  tracked_.push_back({report.scan, report.stamp, informative_scans_, pose(), poseCovariance(),
+                      odometry_, Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero()});
+  // Only the scans a rule or probe could still take for the start of a kidnap: those within
+  // lost_recent_scans (in the same count as recent()).
+  const auto old = [this, &report](const TrackedPose& t) {
+    return config_.lost_recent_informative
+               ? informative_scans_ - t.informative > config_.lost_recent_scans
+               : static_cast<std::int64_t>(report.scan) - t.scan > config_.lost_recent_scans;
+  };
+  while (!tracked_.empty() && (old(tracked_.front()) || tracked_.size() > kMaxLostPath))
+    tracked_.pop_front();
+}
+
+std::vector<LostPathPose> SlamPipeline::rederiveTracked(
+    const Eigen::Vector3d& dead_reckoned) const {
+  std::vector<LostPathPose> path;
+  const Eigen::Vector3d fixed = pose();
+  const Eigen::Matrix3d P = poseCovariance();
+  const Eigen::Matrix3d Jr = [&] {
+    Eigen::Matrix3d J = Eigen::Matrix3d::Identity();
+    J.topLeftCorner<2, 2>() = rotation2d(fixed.z() - dead_reckoned.z());
+    return J;
+  }();
+  const double gate = chi2Quantile(kProbeProbability, 3);
+  // Newest first, up to the first scan whose estimate the carried-back fix agrees with: there the
+  // estimate was still right, and every older one with it. Q: the current pose's covariance given
+  // that scan's by the odometry, Phi: d now / d (the newer scan), chained back one scan at a time.
+  Eigen::Matrix3d Q = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d Phi = Eigen::Matrix3d::Identity();
+  for (auto t = tracked_.rbegin(); t != tracked_.rend(); ++t) {
+    Q += Phi * t->Q * Phi.transpose();
+    Phi = Phi * t->F;
+    const Eigen::Vector3d v = composePose(inversePose(odometry_), t->odometry);
+    Eigen::Vector3d carried = composePose(fixed, v);
+    carried.z() = wrapAngle(carried.z());
+    Eigen::Vector3d d = carried - t->pose;
+    d.z() = wrapAngle(d.z());
+    // carried = fixed o v: d/d fixed = [I, S R v_xy; 0 1]; the odometry's noise turned from the
+    // dead-reckoned frame into the fixed one (as agrees() does for a held fix).
+    const Eigen::Vector2d lever = rotation2d(fixed.z()) * v.head<2>();
+    Eigen::Matrix3d J = Eigen::Matrix3d::Identity();
+    J(0, 2) = -lever.y();
+    J(1, 2) = lever.x();
+    const Eigen::Matrix3d S = t->covariance + J * P * J.transpose() + Jr * Q * Jr.transpose();
+    if (d.dot(S.ldlt().solve(d)) <= gate) break;
+    path.push_back({t->scan, t->stamp, carried, /*tracked=*/true});
+  }
+  std::reverse(path.begin(), path.end());
+  return path;
 }
 
 bool SlamPipeline::applyIfConfirmed(const RelocalisationResult& r, ScanReport* report) {
@@ -529,7 +589,12 @@ void SlamPipeline::applyRelocalisation(const RelocalisationResult& r, ScanReport
   // between each of them and this scan holds: carried back from the fixed pose they are where
   // the vehicle was (docs/relocalisation.md, "The lost path").
   const Eigen::Vector3d to_fixed = composePose(pose(), inversePose(dead_reckoned));
-  report->lost_path.reserve(lost_path_.size());
+  // And the tracked scans before going lost that the fix contradicts: the kidnap happened before
+  // a rule or probe could see it.
+  report->lost_path = rederiveTracked(dead_reckoned);
+  counters_.rederived_tracked_poses += report->lost_path.size();
+  tracked_.clear();
+  report->lost_path.reserve(report->lost_path.size() + lost_path_.size());
   for (LostPathPose p : lost_path_) {
     p.pose = composePose(to_fixed, p.pose);
     p.pose.z() = wrapAngle(p.pose.z());
@@ -568,6 +633,14 @@ Eigen::Matrix3d SlamPipeline::poseCovariance() const {
 void SlamPipeline::applyPendingMotion() const {
   if (pending_steps_ == 0) return;
   if (lost_ && !window_.empty()) window_.addMotion(pending_.F, pending_.Q);
+  // The odometry alone, for re-deriving past poses from a fix (rederiveTracked).
+  odometry_ = composePose(odometry_, composePose(inversePose(ekf_.pose()), pending_.pose));
+  odometry_.z() = wrapAngle(odometry_.z());
+  if (!tracked_.empty()) {
+    TrackedPose& t = tracked_.back();
+    t.Q = pending_.F * t.Q * pending_.F.transpose() + pending_.Q;
+    t.F = pending_.F * t.F;
+  }
   for (HeldFix& h : held_) h.Q = pending_.F * h.Q * pending_.F.transpose() + pending_.Q;
   // Steps are checked when composed, so this cannot fail.
   if (cekf_) {
@@ -917,13 +990,13 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
   if (report.invalid_decisions > 0) ++counters_.invalid_associations;
   // A kidnap found by rule 3: the associator's decisions are not applied, the relocaliser's are.
   if (relocaliser_ && checkRefused(&report)) {
-    rememberLostPose(report);
+    rememberPose(report);
     return report;
   }
   informative_scans_ += static_cast<int>(n) >= config_.lost_min_observations;
   applyAssociation(&report);
   if (relocaliser_) checkLost(&report);
-  rememberLostPose(report);  // went lost at this scan: its pose is carried back at the fix too
+  rememberPose(report);  // went lost at this scan: its pose is carried back at the fix too
   return report;
 }
 
@@ -1149,6 +1222,7 @@ void SlamPipeline::loadMap(const std::string& path, bool reset_pose, bool unknow
   associator_->reset();
   for (const MapEntry& e : entries) associator_->landmarkLoaded(e.id, e.info.times_observed);
   lost_ = false;
+  tracked_.clear();  // the history belongs to the map before
   if (unknown_pose) {
     ++counters_.relocalisation_requests;
     enterLost(/*pose_unknown=*/true);

@@ -566,7 +566,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                      filter.correctionCovariance().diagonal().cwiseSqrt()});
     laser_track.push_back({r.stamp, pipeline.observationModel().sensorPose(x).head<2>()});
     online_track.push_back(laser_track.back());
-    // Relocalised: the rows of the scans processed while lost take their re-derived poses.
+    // Relocalised: the rows of the scans processed while lost, and of those tracked before it
+    // that the fix contradicts, take their re-derived poses.
     applyLostPath(
         r.lost_path, poses.size() - 1, [&poses](std::size_t i) { return poses[i].stamp; },
         [&](std::size_t i, const Eigen::Vector3d& p) {
@@ -805,9 +806,10 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   std::vector<bool> gps_faulty;
   if (!bag.gps.empty()) {
     gps_error = compareTrajectories(laser_track, bag.gps);
-    gps_online_error = pipeline.counters().lost_path_poses > 0
-                           ? compareTrajectories(online_track, bag.gps)
-                           : gps_error;
+    gps_online_error =
+        pipeline.counters().lost_path_poses + pipeline.counters().rederived_tracked_poses > 0
+            ? compareTrajectories(online_track, bag.gps)
+            : gps_error;
     // The same without the fixes the GPS track itself shows faulty (judged from the GPS and the
     // odometry only: trajectory_metrics.h, faultyGpsFixes).
     std::vector<StampedPoint> gps = bag.gps;
@@ -947,6 +949,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                    {"relocalisations_not_found", k.relocalisations_not_found},
                    {"relocalisations_unconfirmed", k.relocalisations_unconfirmed},
                    {"lost_path_poses", k.lost_path_poses},
+                   {"rederived_tracked_poses", k.rederived_tracked_poses},
                    {"discarded_landmarks", k.discarded_landmarks}};
   j["relocaliser"] = relocaliser_short;
   j["lost_at_end"] = pipeline.lost();

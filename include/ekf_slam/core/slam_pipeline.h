@@ -207,6 +207,9 @@ struct LostPathPose {
   std::uint32_t scan = 0;
   double stamp = 0.0;
   Eigen::Vector3d pose = Eigen::Vector3d::Zero();
+  /// Tracked before going lost, yet its estimate disagrees with the fix carried back to it: the
+  /// estimate went wrong before a rule saw it (docs/relocalisation.md, "The lost path").
+  bool tracked = false;
 };
 
 /// Applies a ScanReport::lost_path to a trajectory kept by the caller: rows [0, end) in stamp
@@ -258,7 +261,9 @@ struct ScanReport {
   double relocalisation_s = 0.0;        ///< wall time of the relocaliser call
   int landmarks_expected = 0;           ///< map landmarks in view (lost rule 1), when tracking
   /// Relocalised: the poses of the scans processed while lost (oldest first), carried back from
-  /// this scan's pose by the odometry between them (docs/relocalisation.md, "The lost path").
+  /// this scan's pose by the odometry between them, preceded by those of the tracked scans before
+  /// going lost whose estimate the carried-back fix contradicts (`tracked`; docs/relocalisation.md,
+  /// "The lost path").
   std::vector<LostPathPose> lost_path;
 };
 
@@ -295,6 +300,8 @@ struct PipelineCounters {
   std::uint64_t relocalisations_not_found = 0;
   std::uint64_t relocalisations_unconfirmed = 0;  ///< found, held for confirmation
   std::uint64_t lost_path_poses = 0;  ///< lost scans' poses re-derived at a relocalisation
+  /// Tracked scans before going lost re-derived at a relocalisation (LostPathPose::tracked).
+  std::uint64_t rederived_tracked_poses = 0;
   /// Recent landmarks (lost_recent_scans) removed when the pipeline went lost (they may come
   /// from a pose now taken to be wrong).
   std::uint64_t discarded_landmarks = 0;
@@ -535,6 +542,31 @@ class SlamPipeline {
   // ScanReport::lost_path.
   std::deque<LostPathPose> lost_path_;
   void rememberLostPose(const ScanReport& report);  // while lost: the scan's pose, for the above
+  // The tracked scans of the last lost_recent_scans (the horizon within which rule and probe take
+  // a kidnap to have happened, as discardRecent does), kept while tracking and frozen while lost:
+  // at the fix those whose estimate the fix carried back by the odometry contradicts are re-derived
+  // too (ScanReport::lost_path, `tracked`).
+  struct TrackedPose {
+    std::uint32_t scan;
+    double stamp;
+    std::int64_t informative;  // informative_scans_ at the scan (lost_recent_informative)
+    Eigen::Vector3d pose;      // the estimate after the scan's update
+    Eigen::Matrix3d covariance;
+    Eigen::Vector3d odometry;  // odometry_ at the scan
+    // The odometry from this scan to the next one's (the newest: to now), composed as pending_:
+    // next = f(this), F = df/dthis, Q its noise (map frame). One composition per prediction,
+    // into the newest only; rederiveTracked chains them.
+    Eigen::Matrix3d F;
+    Eigen::Matrix3d Q;
+  };
+  mutable std::deque<TrackedPose> tracked_;  // mutable: the odometry grows the newest's F, Q
+  // The odometry alone integrated (the estimate's motion without updates, jumps or fixes), in an
+  // arbitrary frame: the relative motion between any two scans, tracked or lost.
+  mutable Eigen::Vector3d odometry_ = Eigen::Vector3d::Zero();
+  void rememberPose(const ScanReport& report);  // lost: rememberLostPose; else tracked_
+  // At a fix (the pose already updated, `dead_reckoned` the estimate before): the newest tracked
+  // scans whose estimate disagrees with the fix carried back, oldest first.
+  std::vector<LostPathPose> rederiveTracked(const Eigen::Vector3d& dead_reckoned) const;
   int unpaired_streak_ = 0;
   int nis_streak_ = 0;
   int refused_streak_ = 0;

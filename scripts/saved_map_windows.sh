@@ -98,7 +98,7 @@ for s in $(cat "$out/starts.txt"); do
   rm -f "$out/window_$s.bag"
 done
 /usr/bin/python3 - "$out" "$gps_seconds" <<'PY'
-import bisect, csv, json, math, statistics, sys
+import bisect, csv, json, math, os, statistics, sys
 out, gps_seconds = sys.argv[1], float(sys.argv[2])
 def traj(path):
     rows = list(csv.DictReader(open(path)))
@@ -116,9 +116,11 @@ for line in open(f"{out}/full/map.txt"):
     if len(f) >= 3 and not line.startswith(("#", "ekf_slam_map")):
         saved[int(f[0])] = (float(f[1]), float(f[2]))
 ox, oy, oyaw = (float(v) for v in open(f"{out}/sensor_offset.txt").read().split())
-# GPS in the map frame (the full run's alignment, inverted by the runner), without faulty fixes.
+# GPS in the map frame (the full run's alignment, inverted by the runner), without faulty fixes;
+# none (NaN columns) for a bag without /gps.
+gps_csv = f"{out}/full/gps.csv"
 gps = [(float(g["stamp"]), (float(g["x_map"]), float(g["y_map"])))
-       for g in csv.DictReader(open(f"{out}/full/gps.csv")) if g["faulty"] == "0"]
+       for g in csv.DictReader(open(gps_csv)) if g["faulty"] == "0"] if os.path.exists(gps_csv) else []
 def antenna_at(s, p, t):
     """The laser point (the GPS antenna, as the runner takes it) interpolated linearly between the
     two scan poses around t; None outside the trajectory or across a gap of more than 1 s."""

@@ -6,9 +6,15 @@
 # reference), the largest distance after it, and the same two against the window tracked from a
 # known start in the saved map, and the distance to a map fit (the pose that best fits the
 # known-start window's pairings with the saved map at the first well-fitting scan from the fix on).
+# And a reference independent of the map: GPS. The full run's gps.csv holds the fixes moved into
+# the map frame by the runner's one alignment (fitted to the full run's whole trajectory), so the
+# window's fix and the full run's pose over the same seconds are judged with the same transform;
+# per window the median error of the GPS antenna (the laser point) over the fixes the runner does
+# not flag faulty in the GPS_SECONDS after the fix, and over the rest of the window.
 # Prints a table and a summary line; writes OUT/windows.csv.
 #   scripts/saved_map_windows.sh [OUT]       default OUT: $EKF_SLAM_BUILD/saved_map_windows
 # Env: WINDOW (60 s), STEP (120 s between window starts), RELOCALISER (ekf_slam/FGCBB),
+#      GPS_SECONDS (5 s: the GPS fixes after the fix whose median error is the GPS column),
 #      PARAMS (config/victoria_park.yaml; the windows' parameters, the full run's are always that),
 #      VP_BAG (default $EKF_SLAM_BUILD/vp.bag, converted from $VP_DATA if missing).
 set -eo pipefail
@@ -17,6 +23,7 @@ source "$EKF_SLAM_DEVEL/setup.bash"
 out=${1:-$EKF_SLAM_BUILD/saved_map_windows}
 window=${WINDOW:-60}
 step=${STEP:-120}
+gps_seconds=${GPS_SECONDS:-5}
 reloc=${RELOCALISER:-ekf_slam/FGCBB}
 bag=${VP_BAG:-$EKF_SLAM_BUILD/vp.bag}
 params=$EKF_SLAM_ROOT/config/victoria_park.yaml
@@ -90,9 +97,9 @@ for s in $(cat "$out/starts.txt"); do
     echo "window $s, known start: run failed (see $out/k_$s.log)"
   rm -f "$out/window_$s.bag"
 done
-/usr/bin/python3 - "$out" <<'PY'
-import bisect, csv, json, math, sys
-out = sys.argv[1]
+/usr/bin/python3 - "$out" "$gps_seconds" <<'PY'
+import bisect, csv, json, math, os, statistics, sys
+out, gps_seconds = sys.argv[1], float(sys.argv[2])
 def traj(path):
     rows = list(csv.DictReader(open(path)))
     return [float(r["stamp"]) for r in rows], [(float(r["x"]), float(r["y"]), float(r["yaw"])) for r in rows]
@@ -109,6 +116,28 @@ for line in open(f"{out}/full/map.txt"):
     if len(f) >= 3 and not line.startswith(("#", "ekf_slam_map")):
         saved[int(f[0])] = (float(f[1]), float(f[2]))
 ox, oy, oyaw = (float(v) for v in open(f"{out}/sensor_offset.txt").read().split())
+# GPS in the map frame (the full run's alignment, inverted by the runner), without faulty fixes;
+# none (NaN columns) for a bag without /gps.
+gps_csv = f"{out}/full/gps.csv"
+gps = [(float(g["stamp"]), (float(g["x_map"]), float(g["y_map"])))
+       for g in csv.DictReader(open(gps_csv)) if g["faulty"] == "0"] if os.path.exists(gps_csv) else []
+def antenna_at(s, p, t):
+    """The laser point (the GPS antenna, as the runner takes it) interpolated linearly between the
+    two scan poses around t; None outside the trajectory or across a gap of more than 1 s."""
+    i = bisect.bisect_left(s, t)
+    if i == len(s) or (s[i] != t and (i == 0 or s[i] - s[i - 1] > 1.0)):
+        return None
+    def laser(q):
+        c, si = math.cos(q[2]), math.sin(q[2])
+        return q[0] + c * ox - si * oy, q[1] + si * ox + c * oy
+    a, b = laser(p[i]), laser(p[max(i - 1, 0)])
+    w = 0.0 if s[i] == t else (s[i] - t) / (s[i] - s[i - 1])
+    return a[0] + w * (b[0] - a[0]), a[1] + w * (b[1] - a[1])
+def gps_median(s, p, t0, t1):
+    """(median distance to the good GPS fixes in [t0, t1], number of fixes) of trajectory s, p."""
+    errs = [math.hypot(q[0] - g[0], q[1] - g[1]) for t, g in gps if t0 <= t <= t1
+            for q in [antenna_at(s, p, t)] if q]
+    return (statistics.median(errs) if errs else float("nan")), len(errs)
 scan_of = {}
 def map_fits(s):
     """(stamp, fitted base_link pose) per scan of the known-start window with a good fit."""
@@ -184,21 +213,33 @@ for s in starts:
                     break
         except OSError:
             pass
+        # GPS, the same transform for both: the window and the full run at the same fixes.
+        end = ts[-1]
+        r["gps_fix_error_m"], r["gps_fixes"] = gps_median(ts, tp, stamp, stamp + gps_seconds)
+        r["gps_full_error_m"], n_full = gps_median(fs, fp, stamp, stamp + gps_seconds)
+        if n_full != r["gps_fixes"]:  # the full run covers every stamp of the window
+            r["gps_full_error_m"] = float("nan")
+        r["gps_rest_error_m"], r["gps_rest_fixes"] = gps_median(ts, tp, stamp, end)
+        r["gps_full_rest_error_m"], _ = gps_median(fs, fp, stamp, end)
     rows.append(r)
 with open(f"{out}/windows.csv", "w") as f:
     keys = ["start", "scans", "fixed", "fix_scan", "fix_after_s", "fix_error_m", "max_error_after_m", "off_full_run",
-            "known_fix_error_m", "known_max_error_after_m", "map_fit_scan", "map_fit_error_m"]
+            "known_fix_error_m", "known_max_error_after_m", "map_fit_scan", "map_fit_error_m", "gps_fixes",
+            "gps_fix_error_m", "gps_full_error_m", "gps_rest_fixes", "gps_rest_error_m", "gps_full_rest_error_m"]
     w = csv.DictWriter(f, keys, extrasaction="ignore"); w.writeheader(); w.writerows(rows)
 print("| window start [s] | scans | fixed at scan | after [s] | error at fix [m] | max error after [m] "
-      "| known start: at fix [m] | known start: max after [m] | map fit: scan | map fit: error [m] |")
-print("|---|---|---|---|---|---|---|---|---|---|")
+      "| known start: at fix [m] | known start: max after [m] | map fit: scan | map fit: error [m] "
+      f"| GPS fixes in {gps_seconds:g} s | GPS: fix [m] | GPS: full run [m] | GPS, rest of window: fix [m] "
+      "| GPS, rest of window: full run [m] |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 for r in rows:
     if r.get("fixed"):
         print(f"| {r['start']} | {r['scans']} | {r['fix_scan']} | {r['fix_after_s']:.1f} | {r['fix_error_m']:.2f} "
               f"| {r['max_error_after_m']:.2f} | {r['known_fix_error_m']:.2f} | {r['known_max_error_after_m']:.2f} "
-              f"| {r['map_fit_scan']} | {r['map_fit_error_m']:.2f} |")
+              f"| {r['map_fit_scan']} | {r['map_fit_error_m']:.2f} | {r['gps_fixes']} | {r['gps_fix_error_m']:.2f} "
+              f"| {r['gps_full_error_m']:.2f} | {r['gps_rest_error_m']:.2f} | {r['gps_full_rest_error_m']:.2f} |")
     else:
-        print(f"| {r['start']} | {r.get('scans', '-')} | never | - | - | - | - | - | - | - |")
+        print(f"| {r['start']} | {r.get('scans', '-')} | never |" + " - |" * 12)
 n = len(rows)
 fixed = [r for r in rows if r.get("fixed")]
 good = sum(1 for r in fixed if not r["off_full_run"] and r["fix_scan"] <= 10)
@@ -213,4 +254,16 @@ print(f"\n{n} windows, {len(fixed)} fixed, {within10} within 10 scans; at the fi
       f"full run {within2}, of the known-start window {known2}, of the map fit {fit2}; "
       f"{wrong} wrong fixes (more than 2 m from all three); "
       f"{good} within 2 m and 0.2 rad of the full run after at most 10 scans ({100.0 * good / max(n, 1):.0f} %)")
+# NaN compares false: a window without GPS fixes counts in neither.
+with_gps = [r for r in fixed if r["gps_fix_error_m"] == r["gps_fix_error_m"]
+            and r["gps_full_error_m"] == r["gps_full_error_m"]]
+closer = sum(1 for r in with_gps if r["gps_fix_error_m"] < r["gps_full_error_m"])
+gps2 = sum(1 for r in with_gps if r["gps_fix_error_m"] <= 2.0)
+full2 = sum(1 for r in with_gps if r["gps_full_error_m"] <= 2.0)
+rest = [r for r in fixed if r["gps_rest_error_m"] == r["gps_rest_error_m"]]
+closer_rest = sum(1 for r in rest if r["gps_rest_error_m"] < r["gps_full_rest_error_m"])
+print(f"GPS (median over the good fixes in the {gps_seconds:g} s after the fix, {len(with_gps)} windows with "
+      f"fixes): the fix closer to GPS than the full run in {closer} of {len(with_gps)}; within 2 m of GPS: "
+      f"the fix {gps2}, the full run {full2}; over the rest of the window the fix's track closer in "
+      f"{closer_rest} of {len(rest)}")
 PY

@@ -619,6 +619,15 @@ void DJNN::widenCandidates(const AssociationContext& ctx) {
 bool DJNN::jointDecision(const AssociationContext& ctx) {
   const int m = static_cast<int>(assign_.size());
   widenCandidates(ctx);
+  bool old = false;
+  for (int i = 0; i < m && !old; ++i) {
+    for (int j : cand_) {
+      if (ctx.individual(i, j).mahalanobis > ambiguity_gate_) continue;
+      const auto it = last_paired_.find(ctx.landmarkId(j));
+      old = old || it == last_paired_.end() || stamp_ - it->second > p_.loop_closure_age;
+    }
+  }
+  if (!old) return false;
   // Remembered features enter as virtual observations paired with their anchor landmark: the
   // observation moved by the offset (z' = h(anchor) + z - h(anchor + offset)), its noise grown by
   // the offset's covariance, so that the joint covariance keeps the anchor's correlations.
@@ -667,14 +676,10 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
                                 ext.empty() ? ctx.observations() : ext, ctx.stamp());
   JointMlProblem problem;
   problem.null_cost = unmappedCost(p_);
-  bool old = false;
   for (int i = 0; i < m; ++i) {
     std::vector<int> gated;
     for (int j : cand_) {
-      if (ctx.individual(i, j).mahalanobis > ambiguity_gate_) continue;
-      gated.push_back(j);
-      const auto it = last_paired_.find(ctx.landmarkId(j));
-      old = old || it == last_paired_.end() || stamp_ - it->second > p_.loop_closure_age;
+      if (ctx.individual(i, j).mahalanobis <= ambiguity_gate_) gated.push_back(j);
     }
     std::vector<JointMlExtra> kept;
     for (const JointMlExtra& e : extra[i]) {
@@ -686,7 +691,6 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
     problem.candidates.push_back(std::move(gated));
     problem.extra.push_back(std::move(kept));
   }
-  if (!old) return false;
   if (!any_extra) problem.extra.clear();
   ++stats_.joint_scans;
   const JointMlDecision d = jointMaximumLikelihood(ectx, problem, p_.joint_margin);

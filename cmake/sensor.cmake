@@ -8,6 +8,7 @@ if(CATKIN_ENABLE_TESTING)
   ekf_slam_gtest(test_djnn_admission ekf_slam_core)
   ekf_slam_gtest(test_djnn_tentative_pose ekf_slam_core)
   ekf_slam_gtest(test_djnn_joint ekf_slam_core)
+  ekf_slam_gtest(test_djnn_remembered ekf_slam_core)
   ekf_slam_gtest(test_cartesian_observations ekf_slam_core)
 endif()
 

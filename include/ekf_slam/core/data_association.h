@@ -102,6 +102,8 @@ class AssociationContext {
   Eigen::Vector3d sensorPose() const { return model_.sensorPose(ekf_.pose()); }
   LandmarkId landmarkId(int index) const { return ekf_.landmarkIds()[index]; }
   std::size_t numLandmarks() const { return ekf_.numLandmarks(); }
+  /// The spatial index (e.g. for a context over other observations of the same scan).
+  const LandmarkIndex& landmarkIndex() const { return index_; }
 
   /// State-order indices of the landmarks within `radius` of `center` (spatial index).
   std::vector<int> landmarksNear(const Eigen::Vector2d& center, double radius) const;

@@ -50,6 +50,12 @@ inline std::int64_t packCell(std::int64_t ix, std::int64_t iy) {
 // -2 ln of "a landmark not in the map, or clutter" per observation: the density of unmapped
 // landmarks plus the clutter density (per m^2), the null hypothesis of the density test and of
 // the joint decision.
+// Keys of live tentative features in the joint decision (remembered features count from 0).
+constexpr int kLiveKeyBase = 1 << 28;
+// DJNN::force_new_ values: admitted on a remembered feature; held by the joint decision.
+constexpr char kAdmit = 1;
+constexpr char kHeld = 2;
+
 double unmappedCost(const DJNN::Params& p) {
   return -2.0 * std::log(p.landmark_density + p.sensor.clutter_density);
 }
@@ -100,6 +106,8 @@ void DJNN::configure(const ParameterSource& params) {
   p.landmark_density = r.nonNegative("landmark_density", def.landmark_density);
   p.loop_closure_age = r.nonNegative("loop_closure_age", def.loop_closure_age);
   p.joint_margin = r.nonNegative("joint_margin", def.joint_margin);
+  p.remembered_sightings =
+      r.integer("remembered_sightings", def.remembered_sightings, 0, kMaxEvidence);
   if (p.loop_closure_age > 0.0 && p.landmark_density + p.sensor.clutter_density <= 0.0) {
     r.fail(
         "loop_closure_age",
@@ -153,6 +161,9 @@ void DJNN::reset() {
   tentative_cells_.clear();
   tentative_sweep_ = 0;
   pending_new_.clear();
+  remembered_.clear();
+  remembered_keys_ = 0;
+  force_new_.clear();
   last_case_ = Case::kNone;
   last_v_bar_.setZero();
   stats_ = Stats();
@@ -274,6 +285,8 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   AssociationResult result;
   result.resize(m);
   pending_new_.assign(m, -1);
+  force_new_.assign(m, 0);
+  held_scan_ = false;
   last_v_bar_.setZero();
   if (m == 0) {
     // The paper calls DJNN only for non-empty scans (seed 000 section 5.2: 6949 non-empty scans,
@@ -422,6 +435,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
       if (result.decision[i] == Decision::kPaired) last_paired_[result.landmark[i]] = stamp_;
     }
     for (LandmarkId id : result.remove) last_paired_.erase(id);
+    for (LandmarkId id : result.remove) remembered_.erase(id);  // their anchor is gone
   }
   return result;
 }
@@ -552,6 +566,49 @@ void DJNN::densityTest(const AssociationContext& ctx) {
 
 // --- joint decision at loop closures ----------------------------------------------------------
 
+// The local region (eq. 10) is placed by the pose estimate with margins for a good pose; back on
+// old landmarks with a pose error of metres, a true landmark in view can lie outside it, and the
+// joint decision would then never weigh the true hypothesis. Landmarks within three standard
+// deviations of the pose (position, and heading at the far range) that gate with an observation
+// join the candidates.
+void DJNN::widenCandidates(const AssociationContext& ctx) {
+  const Eigen::Matrix3d P = ctx.ekf().poseCovariance();
+  const double R = p_.sensor.max_range;
+  const double radius =
+      R + p_.range_margin +
+      3.0 * (std::sqrt(std::max(0.0, P(0, 0) + P(1, 1))) + R * std::sqrt(std::max(0.0, P(2, 2))));
+  const int m = static_cast<int>(assign_.size());
+  std::vector<int> added;
+  for (int j : ctx.landmarksNear(sensor_pose_.head<2>(), radius)) {
+    if (std::binary_search(cand_.begin(), cand_.end(), j)) continue;
+    for (int i = 0; i < m; ++i) {
+      if (ctx.individual(i, j).mahalanobis <= ambiguity_gate_) {
+        added.push_back(j);
+        break;
+      }
+    }
+  }
+  if (added.empty()) return;
+  std::vector<int> paired(m, -1);
+  for (int i = 0; i < m; ++i) paired[i] = assign_[i] >= 0 ? cand_[assign_[i]] : -1;
+  std::vector<std::pair<int, char>> merged;
+  for (std::size_t c = 0; c < cand_.size(); ++c) merged.emplace_back(cand_[c], cand_valid_[c]);
+  for (int j : added) merged.emplace_back(j, 0);  // outside eq. 10, so outside eq. 7
+  std::sort(merged.begin(), merged.end());
+  cand_.clear();
+  cand_valid_.clear();
+  for (const auto& e : merged) {
+    cand_.push_back(e.first);
+    cand_valid_.push_back(e.second);
+  }
+  for (int i = 0; i < m; ++i) {
+    if (paired[i] >= 0) {
+      assign_[i] =
+          static_cast<int>(std::lower_bound(cand_.begin(), cand_.end(), paired[i]) - cand_.begin());
+    }
+  }
+}
+
 // Back on markers last seen long ago, the pose error can be a marker spacing or more: NN (with
 // eq. 6's compensation) and the shift test then pick one of several hypotheses that fit nearly
 // equally, and a wrong one corrupts the map for good. The joint maximum-likelihood assignment over
@@ -561,34 +618,110 @@ void DJNN::densityTest(const AssociationContext& ctx) {
 // Returns false, changing nothing, when no gated landmark is older than loop_closure_age.
 bool DJNN::jointDecision(const AssociationContext& ctx) {
   const int m = static_cast<int>(assign_.size());
-  JointMlProblem problem;
-  problem.null_cost = unmappedCost(p_);
+  widenCandidates(ctx);
   bool old = false;
-  for (int i = 0; i < m; ++i) {
-    std::vector<int> gated;
+  for (int i = 0; i < m && !old; ++i) {
     for (int j : cand_) {
       if (ctx.individual(i, j).mahalanobis > ambiguity_gate_) continue;
-      gated.push_back(j);
       const auto it = last_paired_.find(ctx.landmarkId(j));
       old = old || it == last_paired_.end() || stamp_ - it->second > p_.loop_closure_age;
     }
-    if (gated.empty()) continue;
-    problem.obs.push_back(i);
-    problem.candidates.push_back(std::move(gated));
   }
   if (!old) return false;
+  // Remembered features enter as virtual observations paired with their anchor landmark: the
+  // observation moved by the offset (z' = h(anchor) + z - h(anchor + offset)), its noise grown by
+  // the offset's covariance, so that the joint covariance keeps the anchor's correlations.
+  std::vector<Observation> ext;
+  std::vector<std::vector<JointMlExtra>> extra(m);
+  std::unordered_map<int, LandmarkId> key_anchor;
+  bool any_extra = false;
+  if (p_.remembered_sightings > 0) {
+    ext = ctx.observations();
+    const Eigen::Vector3d pose = ctx.robotPose();
+    const auto addOption = [&](int j, const Eigen::Vector2d& offset, const Eigen::Matrix2d& cov,
+                               int key) {
+      const Eigen::Vector2d at = ctx.ekf().landmark(j) + offset;
+      for (int i = 0; i < m; ++i) {
+        const Observation& o = ctx.observations()[i];
+        Eigen::Matrix2d H_m;
+        const Eigen::Vector2d z_hat = ctx.model().predict(pose, at, o.kind, nullptr, &H_m);
+        Observation v = o;
+        v.z = ctx.prediction(j, o.kind).z_hat + RangeBearingModel::innovation(o.z, z_hat, o.kind);
+        v.R = o.R + H_m * cov * H_m.transpose();
+        ext.push_back(v);
+        extra[i].push_back({static_cast<int>(ext.size()) - 1, j, key});
+      }
+    };
+    std::unordered_map<LandmarkId, int> local;  // anchor id -> state index
+    for (int j : cand_) {
+      local[ctx.landmarkId(j)] = j;
+      const auto it = remembered_.find(ctx.landmarkId(j));
+      if (it == remembered_.end()) continue;
+      for (const Remembered& r : it->second) {
+        addOption(j, r.offset, r.cov, r.key);
+        key_anchor[r.key] = it->first;
+      }
+    }
+    // The live tentative features in view are options too: a marker seen a few times on this
+    // pass is likelier itself than an old landmark a pose shift away.
+    queryTentatives(sensor_pose_.head<2>(), p_.sensor.max_range + p_.range_margin, &tent_near_);
+    for (int slot : tent_near_) {
+      const Tentative& t = tentative_[slot];
+      const auto it = local.find(t.anchor);
+      if (it == local.end() || t.sightings < p_.remembered_sightings) continue;
+      addOption(it->second, t.anchor_offset, t.anchor_cov, kLiveKeyBase + slot);
+    }
+  }
+  const AssociationContext ectx(ctx.ekf(), ctx.model(), ctx.landmarkIndex(),
+                                ext.empty() ? ctx.observations() : ext, ctx.stamp());
+  JointMlProblem problem;
+  problem.null_cost = unmappedCost(p_);
+  for (int i = 0; i < m; ++i) {
+    std::vector<int> gated;
+    for (int j : cand_) {
+      if (ctx.individual(i, j).mahalanobis <= ambiguity_gate_) gated.push_back(j);
+    }
+    std::vector<JointMlExtra> kept;
+    for (const JointMlExtra& e : extra[i]) {
+      if (ectx.individual(e.obs, e.landmark).mahalanobis <= ambiguity_gate_) kept.push_back(e);
+    }
+    if (gated.empty() && kept.empty()) continue;
+    any_extra = any_extra || !kept.empty();
+    problem.obs.push_back(i);
+    problem.candidates.push_back(std::move(gated));
+    problem.extra.push_back(std::move(kept));
+  }
+  if (!any_extra) problem.extra.clear();
   ++stats_.joint_scans;
-  const JointMlDecision d = jointMaximumLikelihood(ctx, problem, p_.joint_margin);
+  const JointMlDecision d = jointMaximumLikelihood(ectx, problem, p_.joint_margin);
+  held_scan_ = false;
   stats_.joint_incomplete += !d.complete;
   for (std::size_t k = 0; k < problem.obs.size(); ++k) {
     const int i = problem.obs[k];
     if (!d.complete || d.alternative_cost[k] < d.best_cost + p_.joint_margin) {
       assign_[i] = -1;
-      gated_[i] = 1;
       ++stats_.joint_held;
+      held_scan_ = p_.remembered_sightings > 0;
+      // Held. With remembered features its sighting still feeds a tentative feature (never admitted
+      // while held): a marker seen on this pass is then an option of the next scans' decisions.
+      gated_[i] = p_.remembered_sightings > 0 ? 0 : 1;
+      if (p_.remembered_sightings > 0) force_new_[i] = kHeld;
     } else if (d.best[k] >= 0) {
       assign_[i] =
           static_cast<int>(std::lower_bound(cand_.begin(), cand_.end(), d.best[k]) - cand_.begin());
+    } else if (d.best[k] <= -2 - kLiveKeyBase) {
+      assign_[i] = -1;  // a live tentative feature: not in the map, matched to it below
+      gated_[i] = 0;
+    } else if (d.best[k] <= -2) {
+      // A remembered feature: admitted from this observation, and forgotten as such.
+      const int key = -2 - d.best[k];
+      std::vector<Remembered>& list = remembered_[key_anchor[key]];
+      list.erase(std::remove_if(list.begin(), list.end(),
+                                [key](const Remembered& r) { return r.key == key; }),
+                 list.end());
+      assign_[i] = -1;
+      gated_[i] = 0;
+      force_new_[i] = kAdmit;
     } else {
       assign_[i] = -1;  // decided: not in the map
       gated_[i] = 0;
@@ -670,7 +803,8 @@ void DJNN::updateMapEvidence(const AssociationContext& ctx, AssociationResult* r
     } else {
       const Eigen::Vector2d d = ekf.landmark(cand_[k]) - origin;
       const Eigen::Vector2d ps(c * d.x() + s * d.y(), -s * d.x() + c * d.y());
-      if (inRegion(ps, penalty_radial_, penalty_lateral_)) {
+      // A scan the joint decision held undecided says nothing about which landmark was missed.
+      if (!held_scan_ && inRegion(ps, penalty_radial_, penalty_lateral_)) {
         r = evidenceStep(false, ekf.landmarkCovariance(cand_[k]));
       }
     }
@@ -800,9 +934,48 @@ bool DJNN::trackVelocity(const Tentative& t, Eigen::Matrix2d* J, double* statist
   return std::isfinite(*statistic);
 }
 
-void DJNN::dropTentative(int slot) {
+// A marker seen a few times on a first pass but never admitted leaves a hole in the map; back there
+// after a loop, "not in the map" would cost its observation the density of unmapped landmarks while
+// a hypothesis shifted by a marker spacing pairs it: the likelihood would prefer the shift. Its
+// position relative to a neighbouring landmark, known to the observation noise, is kept instead.
+void DJNN::anchorTentative(const AssociationContext& ctx, int slot) {
+  if (p_.remembered_sightings <= 0) return;
+  Tentative& t = tentative_[slot];
+  double best = kInf;
+  t.anchor = kNoLandmark;
+  for (int j : cand_) {
+    // Only a landmark paired recently moves with the pose the feature was placed from; an old one
+    // (at a loop closure) is off by the whole pose error.
+    const auto it = last_paired_.find(ctx.landmarkId(j));
+    if (it == last_paired_.end() || stamp_ - it->second > p_.loop_closure_age) continue;
+    const Eigen::Vector2d off = t.position - ctx.ekf().landmark(j);
+    if (off.squaredNorm() >= best) continue;
+    best = off.squaredNorm();
+    t.anchor = ctx.landmarkId(j);
+    t.anchor_offset = off;
+  }
+  if (t.anchor == kNoLandmark) return;
+  // The feature's fused observation noise, as much again for the anchor's estimate relative to
+  // the pose it was seen from, and the offset turned by the heading's uncertainty.
+  const Eigen::Vector2d perp(-t.anchor_offset.y(), t.anchor_offset.x());
+  t.anchor_cov =
+      2.0 * t.cov + std::max(0.0, ctx.ekf().poseCovariance()(2, 2)) * perp * perp.transpose();
+  // Within its gate of the anchor it is that landmark seen again (a held observation): no
+  // feature of its own.
+  if (t.anchor_offset.dot(t.anchor_cov.inverse() * t.anchor_offset) <= tentative_gate_) {
+    t.anchor = kNoLandmark;
+  }
+}
+
+void DJNN::dropTentative(int slot, bool stale) {
   Tentative& t = tentative_[slot];
   if (!t.alive) return;
+  if (stale && p_.remembered_sightings > 0 && t.sightings >= p_.remembered_sightings &&
+      t.anchor != kNoLandmark) {
+    remembered_[t.anchor].push_back({t.anchor_offset, t.anchor_cov, remembered_keys_++});
+    ++stats_.remembered;
+  }
+  t.anchor = kNoLandmark;
   auto it = tentative_cells_.find(tentativeKey(t.position));
   if (it != tentative_cells_.end()) {
     std::vector<int>& v = it->second;
@@ -963,7 +1136,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     }
     const bool stale = p_.tentative_timeout > 0.0 && stamp - t.last_seen > p_.tentative_timeout;
     if (t.evidence <= p_.remove_evidence + kEvidenceEps || stale) {
-      dropTentative(slot);
+      dropTentative(slot, stale && t.evidence > p_.remove_evidence + kEvidenceEps);
       ++stats_.tentative_dropped;
     }
   }
@@ -975,6 +1148,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     if (slot < 0) {
       slot = addTentative(seen[i].pos, seen[i].cov_obs + jitter, stamp, seen[i].heading_lever);
     }
+    anchorTentative(ctx, slot);
     const double t = tentative_[slot].evidence;
     // With P_D < 1 a hit is worth more than 1, so T reaches the threshold after fewer sightings
     // than at P_D = 1; the static test still needs the paper's admit_evidence sightings of one
@@ -982,7 +1156,15 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     // T >= admit_evidence already implies as many sightings since the last restart.
     const bool enough_sightings =
         !p_.static_test || tentative_[slot].sightings >= p_.admit_evidence;
-    if (t >= p_.admit_evidence - kEvidenceEps && enough_sightings && longEnough(slot)) {
+    if (force_new_[i] == kHeld) {
+      result->decision[i] = Decision::kTentative;
+    } else if (force_new_[i] == kAdmit) {
+      result->decision[i] = Decision::kNew;  // on a remembered feature (joint decision)
+      pending_new_[i] = std::max(t, static_cast<double>(p_.admit_evidence));
+      dropTentative(slot);
+      ++stats_.admitted;
+      ++stats_.remembered_admitted;
+    } else if (t >= p_.admit_evidence - kEvidenceEps && enough_sightings && longEnough(slot)) {
       result->decision[i] = Decision::kNew;
       pending_new_[i] = t;
       dropTentative(slot);  // now the pipeline's landmark; its counter starts in landmarkAdded()
@@ -998,7 +1180,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
       tentative_sweep_ = (tentative_sweep_ + 1) % tentative_.size();
       Tentative& t = tentative_[tentative_sweep_];
       if (t.alive && stamp - t.last_seen > p_.tentative_timeout) {
-        dropTentative(static_cast<int>(tentative_sweep_));
+        dropTentative(static_cast<int>(tentative_sweep_), true);
         ++stats_.tentative_dropped;
       }
     }

@@ -31,12 +31,20 @@ class Search {
     for (int d = m - 1; d >= 0; --d) {
       const int k = order_[d];
       const int obs = problem.obs[k];
-      std::vector<std::pair<double, int>> scored{{problem.null_cost, -1}};
+      std::vector<std::pair<double, Option>> scored{{problem.null_cost, Option{-1, -1, -1}}};
       for (int j : problem.candidates[k]) {
         const AssociationContext::Individual ind = ctx.individual(obs, j);
-        scored.emplace_back(ind.mahalanobis + ind.log_det_S + log_2pi2_, j);
+        scored.emplace_back(ind.mahalanobis + ind.log_det_S + log_2pi2_, Option{j, obs, j});
       }
-      std::stable_sort(scored.begin(), scored.end());
+      if (!problem.extra.empty()) {
+        for (const JointMlExtra& e : problem.extra[k]) {
+          const AssociationContext::Individual ind = ctx.individual(e.obs, e.landmark);
+          scored.emplace_back(ind.mahalanobis + ind.log_det_S + log_2pi2_,
+                              Option{-2 - e.target, e.obs, e.landmark});
+        }
+      }
+      std::stable_sort(scored.begin(), scored.end(),
+                       [](const auto& a, const auto& b) { return a.first < b.first; });
       for (const auto& s : scored) options_[d].push_back(s.second);
       // A pairing's cost given the others is D^2 + ln|S_cond| + 2 ln 2 pi with S_cond >= R:
       // at least ln|R| + 2 ln 2 pi. "Not in the map" costs null_cost.
@@ -58,6 +66,7 @@ class Search {
     aborted_ = false;
     current_.assign(order_.size(), -1);
     pairs_.clear();
+    values_.clear();
     descend(0, 0.0, 0);
     *nodes += nodes_;
     if (found_) {
@@ -85,37 +94,48 @@ class Search {
       return;
     }
     const int k = order_[d];
-    for (int j : options_[d]) {
-      if (k == forbid_entry_ && j == forbid_value_) continue;
-      current_[k] = j;
-      if (j < 0) {
+    for (const Option& o : options_[d]) {
+      if (k == forbid_entry_ && o.value == forbid_value_) continue;
+      current_[k] = o.value;
+      if (o.value == -1) {
         descend(d + 1, cost + problem_.null_cost, nulls + 1);
         continue;
       }
       bool used = false;
-      for (const auto& p : pairs_) used = used || p.second == j;
+      for (int v : values_) used = used || v == o.value;
       if (used) continue;
-      pairs_.emplace_back(problem_.obs[k], j);
+      pairs_.emplace_back(o.obs, o.landmark);
+      values_.push_back(o.value);
       const double c = jointInnovationCost(ctx_, pairs_) +
                        log_2pi2_ * static_cast<double>(pairs_.size()) + problem_.null_cost * nulls;
       descend(d + 1, c, nulls);
       pairs_.pop_back();
+      values_.pop_back();
     }
     current_[k] = -1;
   }
 
+  /// One option of an entry: its value in the decision (landmark index, -1 for none, -2 - target)
+  /// and the pairing it makes (observation and landmark of the context).
+  struct Option {
+    int value;
+    int obs;
+    int landmark;
+  };
+
   const AssociationContext& ctx_;
   const JointMlProblem& problem_;
   const double log_2pi2_;
-  std::vector<int> order_;                 ///< search depth -> entry of problem.obs
-  std::vector<std::vector<int>> options_;  ///< per depth: landmark indices and -1, best first
-  std::vector<double> suffix_bound_;       ///< per depth: least cost of the entries from there
+  std::vector<int> order_;                    ///< search depth -> entry of problem.obs
+  std::vector<std::vector<Option>> options_;  ///< per depth, best first
+  std::vector<double> suffix_bound_;          ///< per depth: least cost of the entries from there
   double limit_ = kInf;
   int forbid_entry_ = -1, forbid_value_ = -2;
   bool found_ = false, aborted_ = false;
   std::size_t nodes_ = 0;
   std::vector<int> current_, best_;
   std::vector<std::pair<int, int>> pairs_;
+  std::vector<int> values_;  ///< the values of pairs_, for the one-to-one check
 };
 
 }  // namespace

@@ -155,6 +155,15 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
     if (extent.x() > 0.0 && extent.y() > 0.0 && !world.landmarks.empty()) {
       p["landmark_density"] = text(double(world.landmarks.size()) / (extent.x() * extent.y()));
     }
+    if (world.movers.count == 0) {
+      // Without movers, a few static sightings tell a landmark from clutter (the 7-sighting
+      // admission is the static test's span for walking-pace movers), and loop closures get the
+      // joint decision with the features seen but not admitted remembered as evidence
+      // (docs/djnn.md, "Closing the loops"); the route of `fiducials` never returns within 60 s.
+      p["admit_evidence"] = "3";
+      p["loop_closure_age"] = "60";
+      p["remembered_sightings"] = "2";
+    }
   }
   const double R = coveringRange(world);
   if (R < 15.0) p["range_margin"] = text(0.2 * R);

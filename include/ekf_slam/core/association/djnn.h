@@ -42,15 +42,17 @@ class DJNN : public DataAssociation {
     std::uint64_t admitted = 0;           ///< kNew decisions
     std::uint64_t removed = 0;            ///< landmarks returned in result.remove
     std::uint64_t tentative_dropped = 0;
-    std::uint64_t static_restarts = 0;    ///< tentative features restarted by the static test
-    std::uint64_t biased_removed = 0;     ///< landmarks removed by the innovation-bias test
-    std::uint64_t biased_kept = 0;        ///< pairings withdrawn from established landmarks
-    std::uint64_t shifts_taken = 0;       ///< scans whose pairing a likelier shift replaced
-    std::uint64_t shifts_ambiguous = 0;   ///< scans with pairings withdrawn as ambiguous
-    std::uint64_t density_withdrawn = 0;  ///< pairings withdrawn by the density test
-    std::uint64_t joint_scans = 0;        ///< loop-closure scans given the joint decision
-    std::uint64_t joint_held = 0;         ///< observations the joint decision left undecided
-    std::uint64_t joint_incomplete = 0;   ///< joint searches over budget (scan held)
+    std::uint64_t static_restarts = 0;      ///< tentative features restarted by the static test
+    std::uint64_t biased_removed = 0;       ///< landmarks removed by the innovation-bias test
+    std::uint64_t biased_kept = 0;          ///< pairings withdrawn from established landmarks
+    std::uint64_t shifts_taken = 0;         ///< scans whose pairing a likelier shift replaced
+    std::uint64_t shifts_ambiguous = 0;     ///< scans with pairings withdrawn as ambiguous
+    std::uint64_t density_withdrawn = 0;    ///< pairings withdrawn by the density test
+    std::uint64_t joint_scans = 0;          ///< loop-closure scans given the joint decision
+    std::uint64_t joint_held = 0;           ///< observations the joint decision left undecided
+    std::uint64_t joint_incomplete = 0;     ///< joint searches over budget (scan held)
+    std::uint64_t remembered = 0;           ///< tentative features remembered at their timeout
+    std::uint64_t remembered_admitted = 0;  ///< observations admitted on a remembered feature
   };
 
   /// Parameters (names as read in configure(); defaults in docs/djnn.md).
@@ -107,6 +109,12 @@ class DJNN : public DataAssociation {
     double landmark_density = 0.0;
     double loop_closure_age = 0.0;  ///< [s] joint decision when a gated landmark is older; 0: off
     double joint_margin = 6.0;      ///< -2 ln of the likelihood ratio the joint best must beat
+    /// Remembered sightings (0 = off): a tentative feature that times out with at least this many
+    /// static sightings is kept as a remembered feature, anchored to the map landmark nearest to
+    /// it at its last sighting (offset and its covariance), and the joint decision may pair an
+    /// observation with it (the feature is then admitted) instead of charging "not in the map":
+    /// a hole in the map is evidence, not absence. Used only with loop_closure_age > 0.
+    int remembered_sightings = 0;
     /// Slowest speed [m/s] of a moving object that must be kept out of the map; 0 = off. With
     /// it, the sightings of a tentative feature are also fitted with a constant-velocity track:
     /// its velocity must pass v^T Sigma_v^-1 v <= chi2(2, static_probability) (else the feature
@@ -162,6 +170,17 @@ class DJNN : public DataAssociation {
     double first_seen = 0.0;
     Eigen::Matrix4d track_info = Eigen::Matrix4d::Zero();
     Eigen::Vector4d track_vec = Eigen::Vector4d::Zero();
+    /// Nearest map landmark at the last sighting and the offset to it (remembered_sightings).
+    LandmarkId anchor = kNoLandmark;
+    Eigen::Vector2d anchor_offset = Eigen::Vector2d::Zero();
+    Eigen::Matrix2d anchor_cov = Eigen::Matrix2d::Zero();
+  };
+  /// A tentative feature that timed out after enough sightings (remembered_sightings): where it
+  /// was relative to its anchor landmark.
+  struct Remembered {
+    Eigen::Vector2d offset;
+    Eigen::Matrix2d cov;
+    int key;  ///< unique, for the joint decision's one-to-one rule
   };
   /// Innovation-bias state of a map landmark (bias test).
   struct Bias {
@@ -221,13 +240,19 @@ class DJNN : public DataAssociation {
   /// The density test (Params::landmark_density) on assign_.
   void densityTest(const AssociationContext& ctx);
   bool jointDecision(const AssociationContext& ctx);
+  /// Adds to the candidates the landmarks a pose error of three standard deviations could bring
+  /// into view that gate with an observation (for the joint decision).
+  void widenCandidates(const AssociationContext& ctx);
   /// -2 ln likelihood of pairing observation `obs` with candidate `c` (or none: -1) for every
   /// paired observation of `h`, jointly: D^2 + ln|S| of the pairs, the gate plus ln|S_i| of the
   /// closest candidate for an observation left unpaired.
   double jointCost(const AssociationContext& ctx, const std::vector<int>& h) const;
   int addTentative(const Eigen::Vector2d& pos, const Eigen::Matrix2d& cov, double stamp,
                    const Eigen::Vector2d& heading_lever);
-  void dropTentative(int slot);
+  /// Drops a tentative feature; one that timed out (`stale`) may be remembered.
+  void dropTentative(int slot, bool stale = false);
+  /// Anchors tentative feature `slot` to the nearest local landmark (remembered_sightings).
+  void anchorTentative(const AssociationContext& ctx, int slot);
   void moveTentative(int slot, const Eigen::Vector2d& pos);
   CellKey tentativeKey(const Eigen::Vector2d& p) const;
   void queryTentatives(const Eigen::Vector2d& center, double radius, std::vector<int>* out) const;
@@ -286,6 +311,11 @@ class DJNN : public DataAssociation {
   std::unordered_map<CellKey, std::vector<int>> tentative_cells_;
   std::size_t tentative_sweep_ = 0;
   std::vector<double> pending_new_;  ///< per observation of the last scan: T at admission, or -1
+  /// Remembered features by anchor landmark (remembered_sightings).
+  std::unordered_map<LandmarkId, std::vector<Remembered>> remembered_;
+  int remembered_keys_ = 0;
+  bool held_scan_ = false;       ///< the joint decision held an observation of this scan
+  std::vector<char> force_new_;  ///< per observation: admitted on a remembered feature, or held
 
   Case last_case_ = Case::kNone;
   Eigen::Vector2d last_v_bar_ = Eigen::Vector2d::Zero();

@@ -16,16 +16,29 @@ namespace ekf_slam {
 double jointInnovationCost(const AssociationContext& ctx,
                            const std::vector<std::pair<int, int>>& pairs);
 
+/// A pairing with something other than a map landmark itself (a remembered feature, docs/djnn.md
+/// "Remembered sightings"): observation `obs` of the context (e.g. a virtual one) with landmark
+/// `landmark`, exclusive under the key `target` (>= 0, one per remembered feature).
+struct JointMlExtra {
+  int obs = -1;
+  int landmark = -1;
+  int target = -1;
+};
+
 struct JointMlProblem {
   std::vector<int> obs;                      ///< observation indices of the scan
   std::vector<std::vector<int>> candidates;  ///< per entry of obs: landmark state indices
+  /// Optional (empty, or one list per entry of obs): further options of each entry; taking one
+  /// is reported in JointMlDecision::best as -2 - target.
+  std::vector<std::vector<JointMlExtra>> extra;
   double null_cost = 0.0;  ///< -2 ln(density per m^2) of "not in the map" for one observation
   std::size_t max_nodes = 200000;  ///< search budget per search (all searches: m + 1)
 };
 
 struct JointMlDecision {
-  bool complete = false;   ///< every search finished within the budget
-  std::vector<int> best;   ///< per entry of obs: landmark state index, or -1 (not in the map)
+  bool complete = false;  ///< every search finished within the budget
+  /// Per entry of obs: landmark state index, -1 (not in the map) or -2 - target (an extra option).
+  std::vector<int> best;
   double best_cost = 0.0;  ///< -2 ln of the best hypothesis' likelihood
   /// Per entry of obs: the least cost of a hypothesis deciding that observation otherwise than
   /// `best` (infinite if there is none within `best_cost + margin`).

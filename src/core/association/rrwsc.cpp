@@ -13,6 +13,8 @@ void RRWSC::configure(const ParameterSource& params) {
   gating_.read(reader, 0.999);
   params_.read(reader, 1.0);
   unclaimed_gate_ = reader.nonNegative("unclaimed_gate", 100.0);
+  joint_refinement_ = reader.flag("joint_refinement", true);
+  stale_scans_ = reader.integer("stale_scans", 10, 0, 1000000);
   reset();
 }
 
@@ -49,6 +51,23 @@ AssociationResult RRWSC::associate(const AssociationContext& ctx) {
   }
   matcher_.match(input_, params_, &match_);
   stats_.iterations += matcher_.stats().iterations;
+  // The graph's recognitions the filter refuses are the lost-robot evidence (step 8), counted
+  // on the graph's own matching whatever the refinement then picks.
+  int gated = 0, refused = 0;
+  for (int i = 0; i < m; ++i) {
+    if (match_[i] < 0) continue;
+    ++stats_.matched;
+    if (input_.mahalanobis(i, match_[i]) <= gating_.individual_gate) {
+      ++gated;
+    } else {
+      ++refused;
+    }
+  }
+  stats_.incompatible += refused;
+  result.gate_refused += refused;
+  graph_match_ = match_;
+  const bool confirmed = gated > refused;
+  if (joint_refinement_ && confirmed) refine(m, n);
   // Claimed = paired through the gate: a landmark the graph gave to an observation the filter
   // then refused is still unexplained.
   claimed_.assign(n, 0);
@@ -57,13 +76,19 @@ AssociationResult RRWSC::associate(const AssociationContext& ctx) {
       claimed_[match_[i]] = 1;
     }
   }
+  held_.assign(n, 0);
   for (int i = 0; i < m; ++i) {
     const int j = match_[i];
     if (j < 0) {
-      // An unmatched observation whose nearest landmark nobody claimed is most likely that
-      // landmark's return, farther off than the filter expects (far, noisy): rejected rather
-      // than a duplicate, up to unclaimed_gate.
-      if (nearest_[i] >= 0 && !claimed_[nearest_[i]] && min_mahalanobis_[i] <= unclaimed_gate_) {
+      // An unmatched observation the graph recognised as a landmark, or within unclaimed_gate
+      // of a landmark nobody claimed, is most likely that landmark's return, farther off than
+      // the filter expects (far, noisy): rejected rather than a duplicate.
+      const int g = graph_match_[i];
+      const int u = g >= 0 && !claimed_[g] ? g : nearestUnclaimed(i, n);
+      if (u >= 0) held_[u] = 1;
+      if (g >= 0) {
+        result.decision[i] = Decision::kRejected;
+      } else if (u >= 0) {
         ++stats_.unclaimed;
         result.decision[i] = Decision::kRejected;
       } else {
@@ -71,18 +96,70 @@ AssociationResult RRWSC::associate(const AssociationContext& ctx) {
       }
       continue;
     }
-    ++stats_.matched;
     if (input_.mahalanobis(i, j) <= gating_.individual_gate) {
       result.pair(i, ctx.landmarkId(candidates_[j]));
     } else {
       // The graph says landmark j, the filter disagrees (e.g. the pose is lost): neither an
       // update nor a new landmark, which would duplicate j.
-      ++stats_.incompatible;
-      ++result.gate_refused;
       result.decision[i] = Decision::kRejected;
     }
   }
+  if (stale_scans_ > 0 && confirmed) retireStale(ctx, n, &result);
   return result;
+}
+
+int RRWSC::nearestUnclaimed(int i, int n) const {
+  int best = -1;
+  double best_m = unclaimed_gate_;
+  for (int j = 0; j < n; ++j) {
+    const double mij = input_.mahalanobis(i, j);
+    if (!claimed_[j] && mij <= best_m) {
+      best = j;
+      best_m = mij;
+    }
+  }
+  return best;
+}
+
+void RRWSC::retireStale(const AssociationContext& ctx, int n, AssociationResult* result) {
+  // With the prior confirmed by the rest of the scan, a landmark left unclaimed next to a return
+  // held back for it, scan after scan, is an estimate the filter has lost (wrong and too
+  // certain): its returns would be refused for the rest of the run. Removing it lets the return
+  // start the landmark afresh.
+  for (int j = 0; j < n; ++j) {
+    const LandmarkId id = ctx.landmarkId(candidates_[j]);
+    if (claimed_[j]) {
+      stale_.erase(id);
+    } else if (held_[j] && ++stale_[id] >= stale_scans_) {
+      stale_.erase(id);
+      result->remove.push_back(id);
+      ++stats_.retired;
+    }
+  }
+}
+
+void RRWSC::refine(int m, int n) {
+  // The graph matching, confirmed by the prior (most of its matches pass the gate), says the
+  // filter's prediction is where the scan is; there the filter's joint likelihood ranks the
+  // landmarks better than the shape contexts, whose bins blur with the bearing noise. Each
+  // observation may stay unpaired at the gate's cost, as in ekf_slam/Hungarian.
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  cost_.setConstant(m, n + m, kInf);
+  for (int i = 0; i < m; ++i) {
+    for (int j = 0; j < n; ++j) {
+      const double mij = input_.mahalanobis(i, j);
+      if (mij <= gating_.individual_gate) cost_(i, j) = mij;
+    }
+    cost_(i, n + i) = gating_.individual_gate;
+  }
+  solver_.solve(cost_, &row_to_col_);
+  ++stats_.refined;
+  for (int i = 0; i < m; ++i) {
+    const int c = row_to_col_[i];
+    const int j = c >= 0 && c < n ? c : -1;
+    stats_.changed += j != match_[i];
+    match_[i] = j;
+  }
 }
 
 }  // namespace ekf_slam

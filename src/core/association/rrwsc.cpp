@@ -143,20 +143,33 @@ void RRWSC::refine(int m, int n) {
   // filter's prediction is where the scan is; there the filter's joint likelihood ranks the
   // landmarks better than the shape contexts, whose bins blur with the bearing noise. Each
   // observation may stay unpaired at the gate's cost, as in ekf_slam/Hungarian.
+  // Only landmarks gated to some observation take part: the others are unpaired in every
+  // assignment, and the solver's time grows with the columns.
   constexpr double kInf = std::numeric_limits<double>::infinity();
-  cost_.setConstant(m, n + m, kInf);
-  for (int i = 0; i < m; ++i) {
-    for (int j = 0; j < n; ++j) {
-      const double mij = input_.mahalanobis(i, j);
-      if (mij <= gating_.individual_gate) cost_(i, j) = mij;
+  const double gate = gating_.individual_gate;
+  landmark_of_col_.clear();
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < m; ++i) {
+      if (input_.mahalanobis(i, j) <= gate) {
+        landmark_of_col_.push_back(j);
+        break;
+      }
     }
-    cost_(i, n + i) = gating_.individual_gate;
   }
+  const int nl = static_cast<int>(landmark_of_col_.size());
+  cost_.setConstant(m, nl + m, kInf);
+  for (int c = 0; c < nl; ++c) {
+    for (int i = 0; i < m; ++i) {
+      const double mij = input_.mahalanobis(i, landmark_of_col_[c]);
+      if (mij <= gate) cost_(i, c) = mij;
+    }
+  }
+  for (int i = 0; i < m; ++i) cost_(i, nl + i) = gate;  // its own "unpaired" column
   solver_.solve(cost_, &row_to_col_);
   ++stats_.refined;
   for (int i = 0; i < m; ++i) {
     const int c = row_to_col_[i];
-    const int j = c >= 0 && c < n ? c : -1;
+    const int j = c >= 0 && c < nl ? landmark_of_col_[c] : -1;
     stats_.changed += j != match_[i];
     match_[i] = j;
   }

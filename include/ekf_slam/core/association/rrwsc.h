@@ -1,7 +1,9 @@
 // RRW&SC data association (seed 004; ALGORITHMS.md section 7): the scan and the landmarks in the
 // sensor's reach are matched as two graphs by RrwscMatcher (shape context, pairwise distances,
 // reweighted random walks, Hungarian discretisation), then each match is gated against the
-// filter before it is used as an update. Parameters and decisions: docs/association.md, "RRWSC".
+// filter before it is used as an update; when the graph confirms the prior, the pairs are the
+// filter's joint maximum-likelihood assignment, and a landmark the filter has lost is removed.
+// Parameters and decisions: docs/association.md, "RRWSC".
 #pragma once
 
 #include <cstdint>
@@ -67,7 +69,7 @@ class RRWSC : public DataAssociation {
   bool joint_refinement_ = true;
   AssignmentSolver solver_;
   Eigen::MatrixXd cost_;
-  std::vector<int> row_to_col_, graph_match_;
+  std::vector<int> row_to_col_, graph_match_, landmark_of_col_;
   std::vector<char> held_;  ///< per local landmark: an unmatched return was held back for it
   /// Scans in a row (with the prior confirmed) a landmark went unclaimed with a return held back
   /// for it; removed at stale_scans_ (0: never).

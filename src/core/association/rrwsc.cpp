@@ -27,7 +27,6 @@ AssociationResult RRWSC::associate(const AssociationContext& ctx) {
   candidates_ = ctx.candidateLandmarks(gating_.candidate_margin);
   const int n = static_cast<int>(candidates_.size());
   min_mahalanobis_.assign(m, std::numeric_limits<double>::infinity());
-  nearest_.assign(m, -1);
   if (m == 0 || n == 0) {
     for (int i = 0; i < m; ++i) result.decision[i] = unpairedDecision(min_mahalanobis_[i], gating_);
     return result;
@@ -43,10 +42,7 @@ AssociationResult RRWSC::associate(const AssociationContext& ctx) {
     for (int i = 0; i < m; ++i) {
       const double mij = ctx.individual(i, candidates_[j]).mahalanobis;
       input_.mahalanobis(i, j) = mij;
-      if (mij < min_mahalanobis_[i]) {
-        min_mahalanobis_[i] = mij;
-        nearest_[i] = j;
-      }
+      min_mahalanobis_[i] = std::min(min_mahalanobis_[i], mij);
     }
   }
   matcher_.match(input_, params_, &match_);

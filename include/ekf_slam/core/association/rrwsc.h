@@ -61,7 +61,6 @@ class RRWSC : public DataAssociation {
   MatchInput input_;
   std::vector<int> candidates_, match_;
   std::vector<double> min_mahalanobis_;
-  std::vector<int> nearest_;       ///< per observation: local landmark of least M, or -1
   std::vector<char> claimed_;      ///< per local landmark: matched by some observation
   double unclaimed_gate_ = 100.0;  ///< M below which an unmatched observation next to an
                                    ///< unclaimed landmark is rejected, not new

@@ -1,6 +1,7 @@
 // The ekf_slam/RRWSC associator: graph matching then the filter gate, the new-landmark rule for
 // unmatched observations, no update from a match the filter cannot accept (prior wrong by 30 m and
-// 90 deg), cost independent of landmarks out of reach, parameter errors.
+// 90 deg), cost independent of landmarks out of reach, the joint refinement once the prior is
+// confirmed, the retirement of a landmark the filter has lost, parameter errors.
 #include <gtest/gtest.h>
 
 #include <map>

@@ -93,6 +93,34 @@ TEST(JointMaximumLikelihood, BranchAndBoundFindsTheEnumeratedOptimum) {
   }
 }
 
+// An extra option's own cost (JointMlExtra::cost, DJNN's held_birth_cost) is charged: the same
+// pairing offered as a landmark and as an extra option ties at no cost (both undecided within the
+// margin) and is decided for the landmark once the option costs more than the margin.
+TEST(JointMaximumLikelihood, ExtraOptionsPayTheirCost) {
+  Scene s;
+  s.pose_cov = assoc_test::poseCov(0.05, 0.05, 0.005);
+  s.R = assoc_test::diag2(0.03, deg2rad(1));
+  const int j = s.addLandmark({3.0, 0.5});
+  s.build();
+  s.observeLandmark(j);
+  const AssociationContext ctx = s.context(0);
+  for (const double cost : {0.0, 4.0, 7.0}) {
+    JointMlProblem problem;
+    problem.null_cost = -2.0 * std::log(0.3);
+    problem.obs = {0};
+    problem.candidates = {{j}};
+    problem.extra = {{JointMlExtra{0, j, 0, cost}}};
+    const JointMlDecision d = jointMaximumLikelihood(ctx, problem, 6.0);
+    ASSERT_TRUE(d.complete);
+    EXPECT_EQ(d.best[0], j) << cost;
+    if (cost < 6.0) {
+      EXPECT_NEAR(d.alternative_cost[0], d.best_cost + cost, 1e-9) << cost;
+    } else {
+      EXPECT_TRUE(std::isinf(d.alternative_cost[0])) << cost;  // nothing within the margin
+    }
+  }
+}
+
 // The pose is off by one spacing: NN pairs the row one marker along. A marker off the row (the
 // corridor's corner) is seen too; the shifted hypothesis must leave it out of the map (or pair it
 // 0.8 m off given the row), so the true assignment is far likelier and is taken.
@@ -171,6 +199,8 @@ TEST(DJNNJoint, OffByDefaultAndValidated) {
   EXPECT_THROW(makeDjnn({{"loop_closure_age", "-1"}}), ParameterError);
   EXPECT_THROW(makeDjnn({{"loop_closure_age", "30"}}), ParameterError);  // no density
   EXPECT_THROW(makeDjnn({{"joint_margin", "-1"}}), ParameterError);
+  EXPECT_EQ(d.params().held_birth_cost, 0.0);
+  EXPECT_THROW(makeDjnn({{"held_birth_cost", "-1"}}), ParameterError);
   EXPECT_NO_THROW(makeDjnn(kJoint));
 }
 

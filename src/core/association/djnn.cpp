@@ -108,6 +108,7 @@ void DJNN::configure(const ParameterSource& params) {
   p.joint_margin = r.nonNegative("joint_margin", def.joint_margin);
   p.remembered_sightings =
       r.integer("remembered_sightings", def.remembered_sightings, 0, kMaxEvidence);
+  p.held_birth_cost = r.nonNegative("held_birth_cost", def.held_birth_cost);
   if (p.loop_closure_age > 0.0 && p.landmark_density + p.sensor.clutter_density <= 0.0) {
     r.fail(
         "loop_closure_age",
@@ -639,7 +640,7 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
     ext = ctx.observations();
     const Eigen::Vector3d pose = ctx.robotPose();
     const auto addOption = [&](int j, const Eigen::Vector2d& offset, const Eigen::Matrix2d& cov,
-                               int key) {
+                               int key, double cost) {
       const Eigen::Vector2d at = ctx.ekf().landmark(j) + offset;
       for (int i = 0; i < m; ++i) {
         const Observation& o = ctx.observations()[i];
@@ -649,7 +650,7 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
         v.z = ctx.prediction(j, o.kind).z_hat + RangeBearingModel::innovation(o.z, z_hat, o.kind);
         v.R = o.R + H_m * cov * H_m.transpose();
         ext.push_back(v);
-        extra[i].push_back({static_cast<int>(ext.size()) - 1, j, key});
+        extra[i].push_back({static_cast<int>(ext.size()) - 1, j, key, cost});
       }
     };
     std::unordered_map<LandmarkId, int> local;  // anchor id -> state index
@@ -658,18 +659,21 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
       const auto it = remembered_.find(ctx.landmarkId(j));
       if (it == remembered_.end()) continue;
       for (const Remembered& r : it->second) {
-        addOption(j, r.offset, r.cov, r.key);
+        addOption(j, r.offset, r.cov, r.key, 0.0);
         key_anchor[r.key] = it->first;
       }
     }
     // The live tentative features in view are options too: a marker seen a few times on this
-    // pass is likelier itself than an old landmark a pose shift away.
+    // pass is likelier itself than an old landmark a pose shift away. One started by a held
+    // observation may be a duplicate of the old landmark the closure is about, placed from the
+    // uncorrected pose: held_birth_cost charges it.
     queryTentatives(sensor_pose_.head<2>(), p_.sensor.max_range + p_.range_margin, &tent_near_);
     for (int slot : tent_near_) {
       const Tentative& t = tentative_[slot];
       const auto it = local.find(t.anchor);
       if (it == local.end() || t.sightings < p_.remembered_sightings) continue;
-      addOption(it->second, t.anchor_offset, t.anchor_cov, kLiveKeyBase + slot);
+      addOption(it->second, t.anchor_offset, t.anchor_cov, kLiveKeyBase + slot,
+                t.held_birth ? p_.held_birth_cost : 0.0);
     }
   }
   const AssociationContext ectx(ctx.ekf(), ctx.model(), ctx.landmarkIndex(),
@@ -1147,6 +1151,7 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     int slot = seen[i].slot;
     if (slot < 0) {
       slot = addTentative(seen[i].pos, seen[i].cov_obs + jitter, stamp, seen[i].heading_lever);
+      tentative_[slot].held_birth = force_new_[i] == kHeld;
     }
     anchorTentative(ctx, slot);
     const double t = tentative_[slot].evidence;

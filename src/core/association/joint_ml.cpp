@@ -31,16 +31,16 @@ class Search {
     for (int d = m - 1; d >= 0; --d) {
       const int k = order_[d];
       const int obs = problem.obs[k];
-      std::vector<std::pair<double, Option>> scored{{problem.null_cost, Option{-1, -1, -1}}};
+      std::vector<std::pair<double, Option>> scored{{problem.null_cost, Option{-1, -1, -1, 0.0}}};
       for (int j : problem.candidates[k]) {
         const AssociationContext::Individual ind = ctx.individual(obs, j);
-        scored.emplace_back(ind.mahalanobis + ind.log_det_S + log_2pi2_, Option{j, obs, j});
+        scored.emplace_back(ind.mahalanobis + ind.log_det_S + log_2pi2_, Option{j, obs, j, 0.0});
       }
       if (!problem.extra.empty()) {
         for (const JointMlExtra& e : problem.extra[k]) {
           const AssociationContext::Individual ind = ctx.individual(e.obs, e.landmark);
-          scored.emplace_back(ind.mahalanobis + ind.log_det_S + log_2pi2_,
-                              Option{-2 - e.target, e.obs, e.landmark});
+          scored.emplace_back(ind.mahalanobis + ind.log_det_S + log_2pi2_ + e.cost,
+                              Option{-2 - e.target, e.obs, e.landmark, e.cost});
         }
       }
       std::stable_sort(scored.begin(), scored.end(),
@@ -67,7 +67,7 @@ class Search {
     current_.assign(order_.size(), -1);
     pairs_.clear();
     values_.clear();
-    descend(0, 0.0, 0);
+    descend(0, 0.0, 0, 0.0);
     *nodes += nodes_;
     if (found_) {
       *best = best_;
@@ -79,7 +79,8 @@ class Search {
   bool found() const { return found_; }
 
  private:
-  void descend(int d, double cost, int nulls) {
+  // `charged`: the options' own costs taken so far (JointMlExtra::cost).
+  void descend(int d, double cost, int nulls, double charged) {
     if (aborted_) return;
     if (++nodes_ > problem_.max_nodes) {
       aborted_ = true;
@@ -98,7 +99,7 @@ class Search {
       if (k == forbid_entry_ && o.value == forbid_value_) continue;
       current_[k] = o.value;
       if (o.value == -1) {
-        descend(d + 1, cost + problem_.null_cost, nulls + 1);
+        descend(d + 1, cost + problem_.null_cost, nulls + 1, charged);
         continue;
       }
       bool used = false;
@@ -107,8 +108,9 @@ class Search {
       pairs_.emplace_back(o.obs, o.landmark);
       values_.push_back(o.value);
       const double c = jointInnovationCost(ctx_, pairs_) +
-                       log_2pi2_ * static_cast<double>(pairs_.size()) + problem_.null_cost * nulls;
-      descend(d + 1, c, nulls);
+                       log_2pi2_ * static_cast<double>(pairs_.size()) + problem_.null_cost * nulls +
+                       charged + o.cost;
+      descend(d + 1, c, nulls, charged + o.cost);
       pairs_.pop_back();
       values_.pop_back();
     }
@@ -121,6 +123,7 @@ class Search {
     int value;
     int obs;
     int landmark;
+    double cost;  ///< JointMlExtra::cost
   };
 
   const AssociationContext& ctx_;

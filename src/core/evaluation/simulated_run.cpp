@@ -163,6 +163,7 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
       p["admit_evidence"] = "3";
       p["loop_closure_age"] = "60";
       p["remembered_sightings"] = "2";
+      p["held_birth_cost"] = "4";
     }
   }
   const double R = coveringRange(world);

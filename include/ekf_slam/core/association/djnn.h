@@ -115,6 +115,10 @@ class DJNN : public DataAssociation {
     /// observation with it (the feature is then admitted) instead of charging "not in the map":
     /// a hole in the map is evidence, not absence. Used only with loop_closure_age > 0.
     int remembered_sightings = 0;
+    /// With remembered_sightings: -2 ln charged to the joint decision's option of a live tentative
+    /// feature started by a held observation (its first sighting, never decided "not in the
+    /// map", may be the old landmark the closure is about); 0 = off. "Closing the loops".
+    double held_birth_cost = 0.0;
     /// Slowest speed [m/s] of a moving object that must be kept out of the map; 0 = off. With
     /// it, the sightings of a tentative feature are also fitted with a constant-velocity track:
     /// its velocity must pass v^T Sigma_v^-1 v <= chi2(2, static_probability) (else the feature
@@ -174,6 +178,7 @@ class DJNN : public DataAssociation {
     LandmarkId anchor = kNoLandmark;
     Eigen::Vector2d anchor_offset = Eigen::Vector2d::Zero();
     Eigen::Matrix2d anchor_cov = Eigen::Matrix2d::Zero();
+    bool held_birth = false;  ///< started by an observation the joint decision held
   };
   /// A tentative feature that timed out after enough sightings (remembered_sightings): where it
   /// was relative to its anchor landmark.

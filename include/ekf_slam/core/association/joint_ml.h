@@ -18,11 +18,13 @@ double jointInnovationCost(const AssociationContext& ctx,
 
 /// A pairing with something other than a map landmark itself (a remembered feature, docs/djnn.md
 /// "Remembered sightings"): observation `obs` of the context (e.g. a virtual one) with landmark
-/// `landmark`, exclusive under the key `target` (>= 0, one per remembered feature).
+/// `landmark`, exclusive under the key `target` (>= 0, one per remembered feature), at `cost`
+/// (>= 0, -2 ln) on top of the pairing's own.
 struct JointMlExtra {
   int obs = -1;
   int landmark = -1;
   int target = -1;
+  double cost = 0.0;
 };
 
 struct JointMlProblem {

@@ -52,6 +52,22 @@ constexpr std::size_t kMaxLostPath = 10000;
 // the estimate, with both covariances, beyond chi2(3) at this probability.
 constexpr double kProbeProbability = 0.999;
 
+// Covariance of anchor o u, u the motion an estimate with heading `estimate_yaw` integrated
+// (Q its noise, in that estimate's map frame): d/d anchor = [I, S R u_xy; 0 1] (S the 90 degree
+// turn), and Q turned from the estimate's frame into the anchor's. A held fix moved to now
+// (agrees) and a fix carried back to a tracked scan (rederiveTracked) are both this.
+Eigen::Matrix3d carriedCovariance(const Eigen::Vector3d& anchor, const Eigen::Matrix3d& anchor_cov,
+                                  const Eigen::Vector3d& u, double estimate_yaw,
+                                  const Eigen::Matrix3d& Q) {
+  const Eigen::Vector2d lever = rotation2d(anchor.z()) * u.head<2>();
+  Eigen::Matrix3d Ja = Eigen::Matrix3d::Identity();
+  Ja(0, 2) = -lever.y();
+  Ja(1, 2) = lever.x();
+  Eigen::Matrix3d Jr = Eigen::Matrix3d::Identity();
+  Jr.topLeftCorner<2, 2>() = rotation2d(anchor.z() - estimate_yaw);
+  return Ja * anchor_cov * Ja.transpose() + Jr * Q * Jr.transpose();
+}
+
 }  // namespace
 
 SlamPipeline::SlamPipeline(const PipelineConfig& config,
@@ -467,11 +483,6 @@ std::vector<LostPathPose> SlamPipeline::rederiveTracked(
   std::vector<LostPathPose> path;
   const Eigen::Vector3d fixed = pose();
   const Eigen::Matrix3d P = poseCovariance();
-  const Eigen::Matrix3d Jr = [&] {
-    Eigen::Matrix3d J = Eigen::Matrix3d::Identity();
-    J.topLeftCorner<2, 2>() = rotation2d(fixed.z() - dead_reckoned.z());
-    return J;
-  }();
   const double gate = chi2Quantile(kProbeProbability, 3);
   // Newest first, up to the first scan whose estimate the carried-back fix agrees with: there the
   // estimate was still right, and every older one with it. Q: the current pose's covariance given
@@ -486,13 +497,8 @@ std::vector<LostPathPose> SlamPipeline::rederiveTracked(
     carried.z() = wrapAngle(carried.z());
     Eigen::Vector3d d = carried - t->pose;
     d.z() = wrapAngle(d.z());
-    // carried = fixed o v: d/d fixed = [I, S R v_xy; 0 1]; the odometry's noise turned from the
-    // dead-reckoned frame into the fixed one (as agrees() does for a held fix).
-    const Eigen::Vector2d lever = rotation2d(fixed.z()) * v.head<2>();
-    Eigen::Matrix3d J = Eigen::Matrix3d::Identity();
-    J(0, 2) = -lever.y();
-    J(1, 2) = lever.x();
-    const Eigen::Matrix3d S = t->covariance + J * P * J.transpose() + Jr * Q * Jr.transpose();
+    // carried = fixed o v, the odometry's noise turned from the dead-reckoned frame.
+    const Eigen::Matrix3d S = t->covariance + carriedCovariance(fixed, P, v, dead_reckoned.z(), Q);
     if (d.dot(S.ldlt().solve(d)) <= gate) break;
     path.push_back({t->scan, t->stamp, carried, /*tracked=*/true});
   }
@@ -553,16 +559,8 @@ bool SlamPipeline::agrees(const HeldFix& h, const RelocalisationResult& r) const
     return d.head<2>().norm() <= config_.relocalisation_confirm_distance &&
            std::abs(d.z()) <= config_.relocalisation_confirm_angle;
   }
-  // moved = h.pose o u: d/d h.pose = [I, S R u_xy; 0 1] (S the 90 degree turn); d/du = rot(h.pose),
-  // and u's covariance is Q turned into the held estimate's frame.
-  const Eigen::Vector2d lever = rotation2d(h.pose.z()) * u.head<2>();
-  Eigen::Matrix3d Ja = Eigen::Matrix3d::Identity();
-  Ja(0, 2) = -lever.y();
-  Ja(1, 2) = lever.x();
-  Eigen::Matrix3d Jr = Eigen::Matrix3d::Identity();
-  Jr.topLeftCorner<2, 2>() = rotation2d(h.pose.z() - h.estimate.z());
   const Eigen::Matrix3d S =
-      Ja * h.covariance * Ja.transpose() + Jr * h.Q * Jr.transpose() + r.covariance;
+      carriedCovariance(h.pose, h.covariance, u, h.estimate.z(), h.Q) + r.covariance;
   return d.dot(S.ldlt().solve(d)) <= chi2Quantile(p, 3);
 }
 

@@ -14,6 +14,11 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+// "Not in the map" for entry k: its own cost when the problem gives one per entry.
+double nullCost(const JointMlProblem& p, int k) {
+  return p.null_costs.empty() ? p.null_cost : p.null_costs[k];
+}
+
 // Depth-first search over the observations (fewest options first), each option ordered by its
 // individual cost so that good hypotheses are met early and the bound prunes the rest.
 class Search {
@@ -31,7 +36,8 @@ class Search {
     for (int d = m - 1; d >= 0; --d) {
       const int k = order_[d];
       const int obs = problem.obs[k];
-      std::vector<std::pair<double, Option>> scored{{problem.null_cost, Option{-1, -1, -1, 0.0}}};
+      std::vector<std::pair<double, Option>> scored{
+          {nullCost(problem, k), Option{-1, -1, -1, 0.0}}};
       for (int j : problem.candidates[k]) {
         const AssociationContext::Individual ind = ctx.individual(obs, j);
         scored.emplace_back(ind.mahalanobis + ind.log_det_S + log_2pi2_, Option{j, obs, j, 0.0});
@@ -50,7 +56,7 @@ class Search {
       // at least ln|R| + 2 ln 2 pi. "Not in the map" costs null_cost.
       const double det_r = ctx.observations()[obs].R.determinant();
       const double pair_bound = det_r > 0.0 ? std::log(det_r) + log_2pi2_ : -kInf;
-      suffix_bound_[d] = suffix_bound_[d + 1] + std::min(problem.null_cost, pair_bound);
+      suffix_bound_[d] = suffix_bound_[d + 1] + std::min(nullCost(problem, k), pair_bound);
     }
   }
 
@@ -67,7 +73,7 @@ class Search {
     current_.assign(order_.size(), -1);
     pairs_.clear();
     values_.clear();
-    descend(0, 0.0, 0, 0.0);
+    descend(0, 0.0, 0.0, 0.0);
     *nodes += nodes_;
     if (found_) {
       *best = best_;
@@ -79,8 +85,9 @@ class Search {
   bool found() const { return found_; }
 
  private:
-  // `charged`: the options' own costs taken so far (JointMlExtra::cost).
-  void descend(int d, double cost, int nulls, double charged) {
+  // `nulls`: the "not in the map" costs taken so far; `charged`: the options' own costs
+  // (JointMlExtra::cost).
+  void descend(int d, double cost, double nulls, double charged) {
     if (aborted_) return;
     if (++nodes_ > problem_.max_nodes) {
       aborted_ = true;
@@ -99,7 +106,8 @@ class Search {
       if (k == forbid_entry_ && o.value == forbid_value_) continue;
       current_[k] = o.value;
       if (o.value == -1) {
-        descend(d + 1, cost + problem_.null_cost, nulls + 1, charged);
+        const double null = nullCost(problem_, k);
+        descend(d + 1, cost + null, nulls + null, charged);
         continue;
       }
       bool used = false;
@@ -108,8 +116,7 @@ class Search {
       pairs_.emplace_back(o.obs, o.landmark);
       values_.push_back(o.value);
       const double c = jointInnovationCost(ctx_, pairs_) +
-                       log_2pi2_ * static_cast<double>(pairs_.size()) + problem_.null_cost * nulls +
-                       charged + o.cost;
+                       log_2pi2_ * static_cast<double>(pairs_.size()) + nulls + charged + o.cost;
       descend(d + 1, c, nulls, charged + o.cost);
       pairs_.pop_back();
       values_.pop_back();
@@ -162,7 +169,8 @@ JointMlDecision jointMaximumLikelihood(const AssociationContext& ctx, const Join
   JointMlDecision out;
   out.best.assign(m, -1);
   out.alternative_cost.assign(m, kInf);
-  out.best_cost = problem.null_cost * m;  // everything out of the map: always a hypothesis
+  out.best_cost = 0.0;  // everything out of the map: always a hypothesis
+  for (int k = 0; k < m; ++k) out.best_cost += nullCost(problem, k);
   if (m == 0) {
     out.complete = true;
     return out;

@@ -34,6 +34,9 @@ struct JointMlProblem {
   /// is reported in JointMlDecision::best as -2 - target.
   std::vector<std::vector<JointMlExtra>> extra;
   double null_cost = 0.0;  ///< -2 ln(density per m^2) of "not in the map" for one observation
+  /// Optional (empty, or one per entry of obs): that entry's own cost of "not in the map",
+  /// instead of null_cost.
+  std::vector<double> null_costs;
   std::size_t max_nodes = 200000;  ///< search budget per search (all searches: m + 1)
 };
 

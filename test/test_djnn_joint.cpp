@@ -121,6 +121,76 @@ TEST(JointMaximumLikelihood, ExtraOptionsPayTheirCost) {
   }
 }
 
+// Each entry's own "not in the map" cost (JointMlProblem::null_costs, DJNN's landmark_spacing)
+// replaces null_cost for that entry alone: a pairing that beats the common null by less than the
+// margin is held, one whose own null is dearer is decided; a cheap own null decides "not in the
+// map".
+TEST(JointMaximumLikelihood, PerEntryNullCostsAreCharged) {
+  Scene s;
+  s.pose_cov = assoc_test::poseCov(0.05, 0.05, 0.005);
+  s.R = assoc_test::diag2(0.03, deg2rad(1));
+  const int a = s.addLandmark({3.0, 0.5});
+  const int b = s.addLandmark({3.0, -1.5});
+  s.build();
+  s.observeLandmark(a);
+  s.observeLandmark(b);
+  const AssociationContext ctx = s.context(0);
+  const double pair_a = ctx.individual(0, a).log_det_S + 2.0 * std::log(2.0 * M_PI);
+  JointMlProblem problem;
+  problem.obs = {0, 1};
+  problem.candidates = {{a}, {b}};
+  problem.null_cost = pair_a + 3.0;  // within the margin of the pairing: held
+  JointMlDecision d = jointMaximumLikelihood(ctx, problem, 6.0);
+  ASSERT_TRUE(d.complete);
+  EXPECT_LT(d.alternative_cost[0], d.best_cost + 6.0);
+  problem.null_costs = {pair_a + 10.0, problem.null_cost};  // observation 0's own, dearer
+  d = jointMaximumLikelihood(ctx, problem, 6.0);
+  ASSERT_TRUE(d.complete);
+  EXPECT_EQ(d.best[0], a);
+  EXPECT_GE(d.alternative_cost[0], d.best_cost + 6.0);
+  EXPECT_LT(d.alternative_cost[1], d.best_cost + 6.0);      // observation 1 keeps the common one
+  problem.null_costs = {pair_a - 10.0, problem.null_cost};  // cheap: not in the map
+  d = jointMaximumLikelihood(ctx, problem, 6.0);
+  ASSERT_TRUE(d.complete);
+  EXPECT_EQ(d.best[0], -1);
+}
+
+// A landmark revisited with the pose known to centimetres, its observation a little off (D^2 of
+// about 7, the 97th percentile): against "an unmapped landmark just there" (density 0.3 per m^2)
+// the pairing is less than the margin likelier and is held. Landmarks at least 0.8 m apart leave
+// only clutter as "not in the map" there: paired. With the pose uncertain by a metre the source
+// may lie a spacing away, and landmark_spacing changes nothing.
+TEST(DJNNJoint, LandmarkSpacingLeavesOnlyClutterNearALandmark) {
+  for (const double pose_sigma : {0.03, 1.0}) {
+    for (const bool spacing : {false, true}) {
+      Scene s;
+      s.pose_cov = assoc_test::poseCov(pose_sigma, 0.03, 0.003);
+      s.R = assoc_test::diag2(0.03, deg2rad(1));
+      const int j = s.addLandmark({3.0, 0.5});
+      s.build();
+      std::map<std::string, std::string> p = kJoint;
+      p["clutter_density"] = "0.02";
+      p["individual_probability"] = "0.999";
+      p["ambiguity_probability"] = "0.999";
+      if (spacing) p["landmark_spacing"] = "0.8";
+      DJNN d = makeDjnn(p);
+      // Off along the line of sight: D^2 = 7.
+      s.observeLandmark(j);
+      const double z0 = s.observations[0].z(0);
+      s.observations[0].z(0) = z0 + 0.1;
+      const double m1 = s.context(0).individual(0, j).mahalanobis;
+      s.observations[0].z(0) = z0 + 0.1 * std::sqrt(7.0 / m1);
+      const double m = s.context(0).individual(0, j).mahalanobis;
+      ASSERT_GT(m, 6.0);
+      ASSERT_LT(m, 8.0);
+      const AssociationResult r = d.associate(s.context(0));
+      EXPECT_EQ(d.stats().joint_scans, 1u);
+      const bool paired = r.decision[0] == Decision::kPaired && r.landmark[0] == Scene::idOf(j);
+      EXPECT_EQ(paired, spacing && pose_sigma < 0.5) << pose_sigma << " " << spacing;
+    }
+  }
+}
+
 // The pose is off by one spacing: NN pairs the row one marker along. A marker off the row (the
 // corridor's corner) is seen too; the shifted hypothesis must leave it out of the map (or pair it
 // 0.8 m off given the row), so the true assignment is far likelier and is taken.
@@ -201,6 +271,10 @@ TEST(DJNNJoint, OffByDefaultAndValidated) {
   EXPECT_THROW(makeDjnn({{"joint_margin", "-1"}}), ParameterError);
   EXPECT_EQ(d.params().held_birth_cost, 0.0);
   EXPECT_THROW(makeDjnn({{"held_birth_cost", "-1"}}), ParameterError);
+  EXPECT_EQ(d.params().landmark_spacing, 0.0);
+  EXPECT_THROW(makeDjnn({{"landmark_spacing", "-1"}}), ParameterError);
+  EXPECT_THROW(makeDjnn({{"landmark_spacing", "0.8"}}), ParameterError);  // no clutter density
+  EXPECT_NO_THROW(makeDjnn({{"landmark_spacing", "0.8"}, {"clutter_density", "0.02"}}));
   EXPECT_NO_THROW(makeDjnn(kJoint));
 }
 

@@ -109,6 +109,10 @@ void DJNN::configure(const ParameterSource& params) {
   p.remembered_sightings =
       r.integer("remembered_sightings", def.remembered_sightings, 0, kMaxEvidence);
   p.held_birth_cost = r.nonNegative("held_birth_cost", def.held_birth_cost);
+  p.landmark_spacing = r.nonNegative("landmark_spacing", def.landmark_spacing);
+  if (p.landmark_spacing > 0.0 && p.sensor.clutter_density <= 0.0) {
+    r.fail("landmark_spacing", "needs clutter_density > 0 (the only \"not in the map\" it leaves)");
+  }
   if (p.loop_closure_age > 0.0 && p.landmark_density + p.sensor.clutter_density <= 0.0) {
     r.fail(
         "loop_closure_age",
@@ -691,6 +695,7 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
     }
     if (gated.empty() && kept.empty()) continue;
     any_extra = any_extra || !kept.empty();
+    if (p_.landmark_spacing > 0.0) problem.null_costs.push_back(unmappedCostOf(ctx, i, gated));
     problem.obs.push_back(i);
     problem.candidates.push_back(std::move(gated));
     problem.extra.push_back(std::move(kept));

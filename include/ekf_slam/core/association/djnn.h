@@ -119,6 +119,11 @@ class DJNN : public DataAssociation {
     /// feature started by a held observation (its first sighting, never decided "not in the
     /// map", may be the old landmark the closure is about); 0 = off. "Closing the loops".
     double held_birth_cost = 0.0;
+    /// Least distance [m] between two landmarks of the world (0 = off; needs clutter_density > 0).
+    /// In the joint decision an observation whose source lies, with probability
+    /// individual_probability, within this distance of a candidate landmark cannot be another
+    /// landmark not in the map: its "not in the map" is charged at the clutter density alone.
+    double landmark_spacing = 0.0;
     /// Slowest speed [m/s] of a moving object that must be kept out of the map; 0 = off. With
     /// it, the sightings of a tentative feature are also fitted with a constant-velocity track:
     /// its velocity must pass v^T Sigma_v^-1 v <= chi2(2, static_probability) (else the feature
@@ -256,6 +261,10 @@ class DJNN : public DataAssociation {
                    const Eigen::Vector2d& heading_lever);
   /// Drops a tentative feature; one that timed out (`stale`) may be remembered.
   void dropTentative(int slot, bool stale = false);
+  /// -2 ln of "not in the map" for observation `obs` of the joint decision, given its gated
+  /// candidates (landmark_spacing).
+  double unmappedCostOf(const AssociationContext& ctx, int obs,
+                        const std::vector<int>& gated) const;
   /// Anchors tentative feature `slot` to the nearest local landmark (remembered_sightings).
   void anchorTentative(const AssociationContext& ctx, int slot);
   void moveTentative(int slot, const Eigen::Vector2d& pos);

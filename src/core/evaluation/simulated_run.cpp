@@ -119,6 +119,17 @@ PipelineConfig pipelineConfigFor(const World& world) {
   return readPipelineConfig(MapParameterSource(pipelineParametersFor(world)));
 }
 
+// The least distance between two landmarks (O(n^2): only for the small worlds that need it).
+static double leastSpacing(const std::vector<Eigen::Vector2d>& landmarks) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t a = 0; a < landmarks.size(); ++a) {
+    for (std::size_t b = a + 1; b < landmarks.size(); ++b) {
+      best = std::min(best, (landmarks[a] - landmarks[b]).squaredNorm());
+    }
+  }
+  return std::sqrt(best);
+}
+
 std::map<std::string, std::string> associatorParametersFor(const World& world,
                                                            const std::string& short_name) {
   if (short_name == "FGCBB" || short_name == "GCBB")
@@ -164,6 +175,9 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
       p["loop_closure_age"] = "60";
       p["remembered_sightings"] = "2";
       p["held_birth_cost"] = "4";
+      // Two markers are never closer than this: a source that close to a mapped one is that
+      // marker or clutter (docs/djnn.md, "The other failing seeds").
+      if (world.clutter_rate > 0.0) p["landmark_spacing"] = text(leastSpacing(world.landmarks));
     }
   }
   const double R = coveringRange(world);

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -227,6 +228,55 @@ TEST_F(OfflineRunnerTest, WritesTheOdometryCorrectionEstimates) {
   EXPECT_EQ((p.state.size() - 3) % 2, 0);
 }
 
+// --landmark-trace: after the last scan the trace holds the final map (landmarks.csv), and
+// every scan's block is the map of that scan (ids unique within it, scans in order).
+TEST_F(OfflineRunnerTest, LandmarkTraceEndsWithTheFinalMap) {
+  OfflineOptions o = options("trace");
+  o.landmark_trace = true;
+  std::ostringstream log;
+  const OfflineSummary s = runOffline(o, log);
+  const auto trace = readLines(fs::path(o.out_dir) / "landmark_trace.csv");
+  ASSERT_GT(trace.size(), 1u);
+  EXPECT_EQ(trace[0], "scan,stamp,id,x,y,var_x,cov_xy,var_y");
+  std::map<std::string, std::vector<std::string>> last_scan;  // id -> fields
+  long scan = -1;
+  std::set<std::string> ids;
+  std::set<long> scans;
+  for (std::size_t i = 1; i < trace.size(); ++i) {
+    const auto f = split(trace[i]);
+    ASSERT_EQ(f.size(), 8u) << trace[i];
+    const long sc = std::stol(f[0]);
+    ASSERT_GE(sc, scan) << trace[i];
+    if (sc != scan) {
+      ids.clear();
+      last_scan.clear();
+      scan = sc;
+      scans.insert(sc);
+    }
+    EXPECT_TRUE(ids.insert(f[2]).second) << "id twice in scan " << sc;
+    EXPECT_GT(std::stod(f[5]), 0.0);  // var_x
+    EXPECT_GT(std::stod(f[7]), 0.0);  // var_y
+    last_scan[f[2]] = f;
+  }
+  EXPECT_EQ(static_cast<std::uint64_t>(scan) + 1, s.scans);  // the last scan is traced
+  EXPECT_GT(scans.size(), s.scans / 2);                      // most scans have a map
+  const auto lms = readLines(fs::path(o.out_dir) / "landmarks.csv");
+  ASSERT_EQ(lms.size() - 1, last_scan.size());
+  for (std::size_t i = 1; i < lms.size(); ++i) {
+    const auto f = split(lms[i]);
+    const auto it = last_scan.find(f[0]);
+    ASSERT_NE(it, last_scan.end()) << "landmark " << f[0] << " not in the last scan's trace";
+    EXPECT_NEAR(std::stod(it->second[3]), std::stod(f[1]), 1e-6);  // x
+    EXPECT_NEAR(std::stod(it->second[4]), std::stod(f[2]), 1e-6);  // y
+    EXPECT_NEAR(std::stod(it->second[5]), std::stod(f[3]), 1e-6);  // var_x
+    EXPECT_NEAR(std::stod(it->second[6]), std::stod(f[4]), 1e-6);  // cov_xy
+  }
+  // Without the option there is no trace.
+  const OfflineOptions plain = options("run_plain");
+  runOffline(plain, log);
+  EXPECT_FALSE(fs::exists(fs::path(plain.out_dir) / "landmark_trace.csv"));
+}
+
 TEST_F(OfflineRunnerTest, DumpedProblemIsReadBackByReplay) {
   OfflineOptions o = options("dump");
   o.dump_problem_scan = 100;
@@ -421,6 +471,12 @@ TEST(OfflineRunner, ParsesArguments) {
   EXPECT_EQ(o.associator, "JCBB");
   EXPECT_EQ(*o.dump_problem_scan, 12u);
   EXPECT_FALSE(o.plot);
+  EXPECT_FALSE(o.landmark_trace);
+  OfflineOptions traced;
+  ASSERT_TRUE(parseOfflineArguments({"--bag", "a.bag", "--out", "d", "--landmark-trace"}, &traced,
+                                    &help, &error))
+      << error;
+  EXPECT_TRUE(traced.landmark_trace);
   OfflineOptions fresh;
   EXPECT_FALSE(parseOfflineArguments({"--bag", "a.bag"}, &fresh, &help, &error));  // no --out
   EXPECT_NE(error.find("--out"), std::string::npos);

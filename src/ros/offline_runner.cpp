@@ -318,6 +318,14 @@ struct PoseRow {
   Eigen::Vector2d correction;  // odometry correction estimates (first correctionDim() used)
   Eigen::Vector2d correction_sd;
 };
+// One landmark_trace.csv row.
+struct LandmarkTraceRow {
+  std::uint32_t scan;
+  double stamp;
+  LandmarkId id;
+  Eigen::Vector2d mean;
+  Eigen::Vector3d cov;  // var_x, cov_xy, var_y
+};
 // One associations.csv row.
 struct AssociationRow {
   std::uint32_t scan;
@@ -493,6 +501,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   poses.reserve(num_scans);
   std::vector<AssociationRow> rows;
   rows.reserve(8 * num_scans);
+  std::vector<LandmarkTraceRow> trace;
   double extraction_s = 0.0, association_s = 0.0, update_s = 0.0;
   std::uint32_t scans_done = 0;
   bool dumped = false;
@@ -603,6 +612,14 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
     // A scan without a true pose has no truth for its features either.
     if (score && (!score_scans || have_pose))
       scorer->addScan(r, truth, x, P, have_pose ? &true_pose : nullptr);
+    if (o.landmark_trace) {
+      const EkfSlam& f = pipeline.ekf();
+      for (std::size_t k = 0; k < f.numLandmarks(); ++k) {
+        const Eigen::Matrix2d C = f.landmarkCovariance(static_cast<int>(k));
+        trace.push_back({r.scan, r.stamp, f.landmarkIds()[k], f.landmark(static_cast<int>(k)),
+                         Eigen::Vector3d(C(0, 0), C(0, 1), C(1, 1))});
+      }
+    }
     if (o.on_scan) o.on_scan(r, pipeline);
     if (o.dump_problem_scan && r.scan == *o.dump_problem_scan) {
       capturing->disarm();
@@ -753,6 +770,15 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
             << toString(a.decision) << ',' << a.landmark;
       if (bag.has_truth_ids || score_scans) assoc << ',' << a.truth_id;
       assoc << '\n';
+    }
+  }
+  if (o.landmark_trace) {
+    std::ofstream lt = openOutput(o.out_dir + "/landmark_trace.csv");
+    lt.precision(10);
+    lt << "scan,stamp,id,x,y,var_x,cov_xy,var_y\n";
+    for (const LandmarkTraceRow& t : trace) {
+      lt << t.scan << ',' << stampText(t.stamp) << ',' << t.id << ',' << t.mean.x() << ','
+         << t.mean.y() << ',' << t.cov(0) << ',' << t.cov(1) << ',' << t.cov(2) << '\n';
     }
   }
   if (o.dump_problem_scan && !dumped) {
@@ -1058,7 +1084,7 @@ void printOfflineUsage(std::ostream& out, const std::string& program) {
   out << "usage: " << program
       << " --bag FILE --out DIR [--params YAML] [--associator NAME] [--dump-problem SCAN]\n"
          "       [--relocaliser NAME] [--load-map FILE [--unknown-pose]]\n"
-         "       [--kidnap SCAN:DX,DY,DYAW ...]\n"
+         "       [--kidnap SCAN:DX,DY,DYAW ...] [--landmark-trace]\n"
          "       [--no-plot] [--no-progress] [--scan-topic T] [--odom-topic T]\n"
          "       [--observations-topic T] [--gps-topic T] [--tf-static-topic T]\n"
          "       [--ground-truth-topic T] [--true-map-topic T] [--base-frame F]\n"
@@ -1079,7 +1105,9 @@ void printOfflineUsage(std::ostream& out, const std::string& program) {
          "  --load-map     a map.txt (~save_map format) to start from; --unknown-pose: the pose\n"
          "        in it is unknown, the run starts lost and relocalises globally\n"
          "  --kidnap       before 0-based scan SCAN, jump the pose estimate by DX,DY [m] (map\n"
-         "        frame) and DYAW [rad] without telling the filter (repeatable)\n";
+         "        frame) and DYAW [rad] without telling the filter (repeatable)\n"
+         "  --landmark-trace  every landmark's mean and covariance after every scan, to\n"
+         "        DIR/landmark_trace.csv (scripts/map_drift.py)\n";
 }
 
 bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions* o, bool* help,
@@ -1101,6 +1129,10 @@ bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions*
     }
     if (a == "--unknown-pose") {
       o->unknown_pose = true;
+      continue;
+    }
+    if (a == "--landmark-trace") {
+      o->landmark_trace = true;
       continue;
     }
     std::string* target = a == "--bag"                  ? &o->bag_path

@@ -57,6 +57,11 @@ struct OfflineOptions {
   std::vector<Kidnap> kidnaps;
   /// 0-based scan whose association problem is written to DIR/problem_<SCAN>.json.
   std::optional<std::uint32_t> dump_problem_scan;
+  /// Every landmark's mean and covariance after every scan, to DIR/landmark_trace.csv: how the
+  /// map moves over the run (scripts/map_drift.py). Large (about 1.1 million rows for Victoria
+  /// Park); with filter cekf every scan brings the whole map up to date (the same estimates,
+  /// slower).
+  bool landmark_trace = false;
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
   std::string observations_topic = "/observations";

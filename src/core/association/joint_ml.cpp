@@ -162,6 +162,7 @@ JointMlDecision jointMaximumLikelihood(const AssociationContext& ctx, const Join
   JointMlDecision out;
   out.best.assign(m, -1);
   out.alternative_cost.assign(m, kInf);
+  out.alternative.assign(m, {});
   out.best_cost = problem.null_cost * m;  // everything out of the map: always a hypothesis
   if (m == 0) {
     out.complete = true;
@@ -178,7 +179,10 @@ JointMlDecision jointMaximumLikelihood(const AssociationContext& ctx, const Join
       out.complete = false;
       return out;
     }
-    if (search.found()) out.alternative_cost[k] = cost;
+    if (search.found()) {
+      out.alternative_cost[k] = cost;
+      out.alternative[k] = std::move(alt);
+    }
   }
   return out;
 }

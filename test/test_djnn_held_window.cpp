@@ -141,11 +141,12 @@ struct Outcome {
 };
 
 // Runs `noisy` noisy scans then, if `shifted`, the shifted one; stops at the first scan that pairs.
-Outcome run(int window, int noisy, bool shifted) {
+Outcome run(int window, int noisy, bool shifted, double margin = 0.0) {
   Row r;
   DJNN d = makeDjnn({{"loop_closure_age", "30"},
                      {"landmark_density", "0.3"},
-                     {"held_window_scans", std::to_string(window)}});
+                     {"held_window_scans", std::to_string(window)},
+                     {"held_window_margin", std::to_string(margin)}});
   std::mt19937 rng(3);
   Outcome out;
   for (int scan = 0; scan < noisy + (shifted ? 1 : 0); ++scan) {
@@ -175,6 +176,9 @@ TEST(DJNNHeldWindow, HeldScansDecideTogether) {
   EXPECT_EQ(window.wrong, 0);
   EXPECT_EQ(window.right, 4);
   EXPECT_LT(window.scans, 10);
+  // A window margin no ten scans reach: held throughout.
+  const Outcome strict = run(30, 10, false, 200.0);
+  EXPECT_EQ(strict.right + strict.wrong, 0);
 }
 
 // One scan whose noise passes the margin for the shifted row decides it alone; after a held scan
@@ -191,6 +195,8 @@ TEST(DJNNHeldWindow, OneScansNoiseNoLongerDecidesAShift) {
 TEST(DJNNHeldWindow, OffByDefaultAndValidated) {
   EXPECT_EQ(DJNN().params().held_window_scans, 0);
   EXPECT_THROW(makeDjnn({{"held_window_scans", "-1"}}), ParameterError);
+  EXPECT_EQ(DJNN().params().held_window_margin, 0.0);
+  EXPECT_THROW(makeDjnn({{"held_window_margin", "-1"}}), ParameterError);
   EXPECT_NO_THROW(makeDjnn({{"held_window_scans", "20"}}));
 }
 

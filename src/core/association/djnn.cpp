@@ -113,6 +113,7 @@ void DJNN::configure(const ParameterSource& params) {
       r.integer("remembered_sightings", def.remembered_sightings, 0, kMaxEvidence);
   p.held_birth_cost = r.nonNegative("held_birth_cost", def.held_birth_cost);
   p.held_window_scans = r.integer("held_window_scans", def.held_window_scans, 0, 1000);
+  p.held_window_margin = r.nonNegative("held_window_margin", def.held_window_margin);
   if (p.loop_closure_age > 0.0 && p.landmark_density + p.sensor.clutter_density <= 0.0) {
     r.fail(
         "loop_closure_age",
@@ -713,15 +714,17 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
   ++stats_.joint_scans;
   // With held scans, alternatives the window may prefer are searched farther (kWindowSearch).
   const bool window = p_.held_window_scans > 0 && !held_window_.empty();
+  const double margin =
+      window && p_.held_window_margin > 0.0 ? p_.held_window_margin : p_.joint_margin;
   JointMlDecision d = jointMaximumLikelihood(
-      ectx, problem, window ? kWindowSearch * p_.joint_margin : p_.joint_margin);
+      ectx, problem, window ? std::max(kWindowSearch * p_.joint_margin, margin) : margin);
   if (window) heldWindowDecision(ctx, ectx, problem, &d);
   held_scan_ = false;
   stats_.joint_incomplete += !d.complete;
   std::vector<int> held;
   for (std::size_t k = 0; k < problem.obs.size(); ++k) {
     const int i = problem.obs[k];
-    if (!d.complete || d.alternative_cost[k] < d.best_cost + p_.joint_margin) {
+    if (!d.complete || d.alternative_cost[k] < d.best_cost + margin) {
       held.push_back(static_cast<int>(k));
       assign_[i] = -1;
       ++stats_.joint_held;

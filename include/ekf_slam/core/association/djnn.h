@@ -129,6 +129,9 @@ class DJNN : public DataAssociation {
     /// jointly (the prior counted once) instead of on itself alone; 0 = off. "Deciding a held
     /// closure on the held scans".
     int held_window_scans = 0;
+    /// -2 ln margin a decision weighed with held scans must pass (0: joint_margin). The evidence
+    /// of a window is larger than one scan's, but the margin is still a per-test error rate.
+    double held_window_margin = 0.0;
     /// Slowest speed [m/s] of a moving object that must be kept out of the map; 0 = off. With
     /// it, the sightings of a tentative feature are also fitted with a constant-velocity track:
     /// its velocity must pass v^T Sigma_v^-1 v <= chi2(2, static_probability) (else the feature

@@ -55,6 +55,9 @@ constexpr int kLiveKeyBase = 1 << 28;
 // DJNN::force_new_ values: admitted on a remembered feature; held by the joint decision.
 constexpr char kAdmit = 1;
 constexpr char kHeld = 2;
+// With held scans in the window, the current scan's alternatives are searched up to this many
+// joint margins from its best (docs/djnn.md, "Deciding a held closure on the held scans").
+constexpr double kWindowSearch = 3.0;
 
 double unmappedCost(const DJNN::Params& p) {
   return -2.0 * std::log(p.landmark_density + p.sensor.clutter_density);
@@ -113,6 +116,8 @@ void DJNN::configure(const ParameterSource& params) {
   if (p.landmark_spacing > 0.0 && p.sensor.clutter_density <= 0.0) {
     r.fail("landmark_spacing", "needs clutter_density > 0 (the only \"not in the map\" it leaves)");
   }
+  p.held_window_scans = r.integer("held_window_scans", def.held_window_scans, 0, 1000);
+  p.held_window_margin = r.nonNegative("held_window_margin", def.held_window_margin);
   if (p.loop_closure_age > 0.0 && p.landmark_density + p.sensor.clutter_density <= 0.0) {
     r.fail(
         "loop_closure_age",
@@ -126,6 +131,7 @@ void DJNN::configure(const ParameterSource& params) {
   p.bias_keep_pairings = r.integer("bias_keep_pairings", def.bias_keep_pairings, 0, kMaxEvidence);
 
   p_ = p;
+  held_window_ = HeldWindow(p_.held_window_scans);
   gate_ = chi2Quantile(p_.individual_probability, 2);
   wide_gate_ = p_.wide_gate_factor * gate_;
   ambiguity_gate_ = chi2Quantile(p_.ambiguity_probability, 2);
@@ -169,6 +175,8 @@ void DJNN::reset() {
   remembered_.clear();
   remembered_keys_ = 0;
   force_new_.clear();
+  held_window_.clear();
+  held_streak_ = 0;
   last_case_ = Case::kNone;
   last_v_bar_.setZero();
   stats_ = Stats();
@@ -302,6 +310,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   ++stats_.scans;
   stamp_ = ctx.stamp();
   sensor_pose_ = ctx.sensorPose();
+  if (p_.held_window_scans > 0) held_window_.advance(ctx.robotPose(), ctx.ekf().poseCovariance());
   obs_kind_.resize(m);
   for (int i = 0; i < m; ++i) obs_kind_[i] = ctx.observations()[i].kind;
   buildCandidates(ctx);
@@ -632,7 +641,13 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
       old = old || it == last_paired_.end() || stamp_ - it->second > p_.loop_closure_age;
     }
   }
-  if (!old) return false;
+  if (!old) {
+    stats_.held_streaks += held_streak_ > 0;
+    stats_.held_streak_scans += held_streak_;
+    held_streak_ = 0;
+    held_window_.clear();
+    return false;
+  }
   // Remembered features enter as virtual observations paired with their anchor landmark: the
   // observation moved by the offset (z' = h(anchor) + z - h(anchor + offset)), its noise grown by
   // the offset's covariance, so that the joint covariance keeps the anchor's correlations.
@@ -702,12 +717,20 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
   }
   if (!any_extra) problem.extra.clear();
   ++stats_.joint_scans;
-  const JointMlDecision d = jointMaximumLikelihood(ectx, problem, p_.joint_margin);
+  // With held scans, alternatives the window may prefer are searched farther (kWindowSearch).
+  const bool window = p_.held_window_scans > 0 && !held_window_.empty();
+  const double margin =
+      window && p_.held_window_margin > 0.0 ? p_.held_window_margin : p_.joint_margin;
+  JointMlDecision d = jointMaximumLikelihood(
+      ectx, problem, window ? std::max(kWindowSearch * p_.joint_margin, margin) : margin);
+  if (window) heldWindowDecision(ctx, ectx, problem, &d);
   held_scan_ = false;
   stats_.joint_incomplete += !d.complete;
+  std::vector<int> held;
   for (std::size_t k = 0; k < problem.obs.size(); ++k) {
     const int i = problem.obs[k];
-    if (!d.complete || d.alternative_cost[k] < d.best_cost + p_.joint_margin) {
+    if (!d.complete || d.alternative_cost[k] < d.best_cost + margin) {
+      held.push_back(static_cast<int>(k));
       assign_[i] = -1;
       ++stats_.joint_held;
       held_scan_ = p_.remembered_sightings > 0;
@@ -736,6 +759,14 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
       gated_[i] = 0;
     }
   }
+  if (held.empty()) {
+    stats_.held_streaks += held_streak_ > 0;
+    stats_.held_streak_scans += held_streak_;
+    held_streak_ = 0;
+  } else {
+    ++held_streak_;
+  }
+  if (p_.held_window_scans > 0) keepHeld(ctx, ectx, problem, held);
   return true;
 }
 
@@ -1211,6 +1242,7 @@ void DJNN::landmarkAdded(int obs, LandmarkId id) {
 // (its cross-covariance with the pose is G_x P_vv), and the tentative feature follows the same
 // rigid motion. Only those within reach of the sensor: the others' next sightings are far off.
 void DJNN::poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& posterior) {
+  held_window_.clear();  // the held scans' poses are no longer the odometry's alone
   if (!p_.tentative_follow_pose || tentative_cells_.empty()) return;
   const double dth = wrapAngle(posterior(2) - prior(2));
   const Eigen::Matrix2d Rot = Eigen::Rotation2Dd(dth).toRotationMatrix();

@@ -169,6 +169,7 @@ JointMlDecision jointMaximumLikelihood(const AssociationContext& ctx, const Join
   JointMlDecision out;
   out.best.assign(m, -1);
   out.alternative_cost.assign(m, kInf);
+  out.alternative.assign(m, {});
   out.best_cost = 0.0;  // everything out of the map: always a hypothesis
   for (int k = 0; k < m; ++k) out.best_cost += nullCost(problem, k);
   if (m == 0) {
@@ -186,7 +187,10 @@ JointMlDecision jointMaximumLikelihood(const AssociationContext& ctx, const Join
       out.complete = false;
       return out;
     }
-    if (search.found()) out.alternative_cost[k] = cost;
+    if (search.found()) {
+      out.alternative_cost[k] = cost;
+      out.alternative[k] = std::move(alt);
+    }
   }
   return out;
 }

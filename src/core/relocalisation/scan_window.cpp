@@ -42,6 +42,8 @@ std::vector<CarriedScan> ScanWindow::carried(const Eigen::Vector3d& now) const {
     J(1, 2) = -c.origin.x();
     J(2, 2) = -1.0;
     c.origin_covariance = J * e.Q * J.transpose();
+    c.pose = e.pose;
+    c.Q = e.Q;
     out.push_back(std::move(c));
   }
   return out;

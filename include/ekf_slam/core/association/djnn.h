@@ -15,6 +15,8 @@
 
 #include <Eigen/Core>
 
+#include "ekf_slam/core/association/held_window.h"
+#include "ekf_slam/core/association/joint_ml.h"
 #include "ekf_slam/core/chi2.h"
 #include "ekf_slam/core/data_association.h"
 #include "ekf_slam/core/sensor_model.h"
@@ -53,6 +55,9 @@ class DJNN : public DataAssociation {
     std::uint64_t joint_incomplete = 0;     ///< joint searches over budget (scan held)
     std::uint64_t remembered = 0;           ///< tentative features remembered at their timeout
     std::uint64_t remembered_admitted = 0;  ///< observations admitted on a remembered feature
+    std::uint64_t window_scans = 0;         ///< joint decisions weighed with held scans
+    std::uint64_t held_streaks = 0;         ///< runs of held joint scans that ended
+    std::uint64_t held_streak_scans = 0;    ///< scans in those runs
   };
 
   /// Parameters (names as read in configure(); defaults in docs/djnn.md).
@@ -124,6 +129,14 @@ class DJNN : public DataAssociation {
     /// individual_probability, within this distance of a candidate landmark cannot be another
     /// landmark not in the map: its "not in the map" is charged at the clutter density alone.
     double landmark_spacing = 0.0;
+    /// With loop_closure_age: while the joint decision holds a closure, up to this many held scans
+    /// are kept, carried by the odometry, and the current scan is decided on them and itself
+    /// jointly (the prior counted once) instead of on itself alone; 0 = off. "Deciding a held
+    /// closure on the held scans".
+    int held_window_scans = 0;
+    /// -2 ln margin a decision weighed with held scans must pass (0: joint_margin). The evidence
+    /// of a window is larger than one scan's, but the margin is still a per-test error rate.
+    double held_window_margin = 0.0;
     /// Slowest speed [m/s] of a moving object that must be kept out of the map; 0 = off. With
     /// it, the sightings of a tentative feature are also fitted with a constant-velocity track:
     /// its velocity must pass v^T Sigma_v^-1 v <= chi2(2, static_probability) (else the feature
@@ -250,6 +263,15 @@ class DJNN : public DataAssociation {
   /// The density test (Params::landmark_density) on assign_.
   void densityTest(const AssociationContext& ctx);
   bool jointDecision(const AssociationContext& ctx);
+  /// With held scans in the window: replaces the single-scan decision `d` of `problem` (over
+  /// `ectx`) by the best of its hypotheses (the best and each observation's alternative) weighed
+  /// with the held scans' best explanation given each (djnn_held_window.cpp).
+  void heldWindowDecision(const AssociationContext& ctx, const AssociationContext& ectx,
+                          const JointMlProblem& problem, JointMlDecision* d);
+  /// After a joint decision: keeps the held entries `held` (indices into problem.obs) of this scan
+  /// in the window, or clears it when nothing was held.
+  void keepHeld(const AssociationContext& ctx, const AssociationContext& ectx,
+                const JointMlProblem& problem, const std::vector<int>& held);
   /// Adds to the candidates the landmarks a pose error of three standard deviations could bring
   /// into view that gate with an observation (for the joint decision).
   void widenCandidates(const AssociationContext& ctx);
@@ -328,8 +350,10 @@ class DJNN : public DataAssociation {
   /// Remembered features by anchor landmark (remembered_sightings).
   std::unordered_map<LandmarkId, std::vector<Remembered>> remembered_;
   int remembered_keys_ = 0;
-  bool held_scan_ = false;       ///< the joint decision held an observation of this scan
-  std::vector<char> force_new_;  ///< per observation: admitted on a remembered feature, or held
+  bool held_scan_ = false;         ///< the joint decision held an observation of this scan
+  HeldWindow held_window_;         ///< held scans of the closure (held_window_scans)
+  std::uint64_t held_streak_ = 0;  ///< consecutive joint scans with something held
+  std::vector<char> force_new_;    ///< per observation: admitted on a remembered feature, or held
 
   Case last_case_ = Case::kNone;
   Eigen::Vector2d last_v_bar_ = Eigen::Vector2d::Zero();

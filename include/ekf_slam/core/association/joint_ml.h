@@ -48,6 +48,8 @@ struct JointMlDecision {
   /// Per entry of obs: the least cost of a hypothesis deciding that observation otherwise than
   /// `best` (infinite if there is none within `best_cost + margin`).
   std::vector<double> alternative_cost;
+  /// Per entry of obs: that hypothesis (as `best`), empty when there is none.
+  std::vector<std::vector<int>> alternative;
   std::size_t nodes = 0;
 };
 

@@ -22,6 +22,10 @@ struct CarriedScan {
   std::vector<Observation> observations;
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   Eigen::Matrix3d origin_covariance = Eigen::Matrix3d::Zero();
+  /// The scan's own pose estimate (map frame) and Q, the current pose's covariance given it (the
+  /// odometry's noise since; DJNN's held window, docs/djnn.md).
+  Eigen::Vector3d pose = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d Q = Eigen::Matrix3d::Zero();
 };
 
 /// Carries a point on an older base_link (and its covariance) into the current base_link, where

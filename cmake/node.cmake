@@ -41,7 +41,8 @@ if(CATKIN_ENABLE_TESTING)
   target_compile_definitions(test_node PRIVATE
     EKF_SLAM_NODE_BIN="$<TARGET_FILE:ekf_slam_node_main>")
   foreach(a NN JCBB NNJCBB Hungarian)
-    add_rostest(test/node.test ARGS associator:=ekf_slam/${a} DEPENDENCIES test_node)
+    add_rostest(test/node.test ARGS associator:=ekf_slam/${a} test_name:=node_${a}
+                DEPENDENCIES test_node)
   endforeach()
   add_rostest(test/node_bad_input.test DEPENDENCIES test_node)
   # A user's BeaconExtractor config through launch/ekf_slam.launch, and the offline runner.

@@ -16,6 +16,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/chi2.h"
+#include "ekf_slam/core/coverage_grid.h"
 #include "ekf_slam/core/data_association.h"
 #include "ekf_slam/core/sensor_model.h"
 
@@ -124,6 +125,14 @@ class DJNN : public DataAssociation {
     /// individual_probability, within this distance of a candidate landmark cannot be another
     /// landmark not in the map: its "not in the map" is charged at the clutter density alone.
     double landmark_spacing = 0.0;
+    /// Side [m] of the cells of a coverage grid counting the scans whose sensor region covered
+    /// each cell (0 = off; needs loop_closure_age and clutter_density > 0). In the joint decision
+    /// an observation's "not in the map" is charged at landmark_density (1 - P_D)^n +
+    /// clutter_density, n the looks at its source (capped at coverage_max_looks), averaged over
+    /// the source's position uncertainty: where the sensor looked often an unmapped landmark is
+    /// unlikely. "Where the sensor has looked" in docs/djnn.md.
+    double coverage_cell = 0.0;
+    int coverage_max_looks = 10;  ///< cap on n (successive looks are not independent)
     /// Slowest speed [m/s] of a moving object that must be kept out of the map; 0 = off. With
     /// it, the sightings of a tentative feature are also fitted with a constant-velocity track:
     /// its velocity must pass v^T Sigma_v^-1 v <= chi2(2, static_probability) (else the feature
@@ -265,6 +274,11 @@ class DJNN : public DataAssociation {
   /// candidates (landmark_spacing).
   double unmappedCostOf(const AssociationContext& ctx, int obs,
                         const std::vector<int>& gated) const;
+  /// landmark_density times the chance that a landmark at the source of observation `obs` is
+  /// not in the map given the looks there (coverage_cell; landmark_density when off).
+  double unmappedDensityOf(const AssociationContext& ctx, int obs) const;
+  /// Counts this scan's sensor region in the coverage grid (coverage_cell > 0).
+  void recordCoverage();
   /// Anchors tentative feature `slot` to the nearest local landmark (remembered_sightings).
   void anchorTentative(const AssociationContext& ctx, int slot);
   void moveTentative(int slot, const Eigen::Vector2d& pos);
@@ -328,8 +342,10 @@ class DJNN : public DataAssociation {
   /// Remembered features by anchor landmark (remembered_sightings).
   std::unordered_map<LandmarkId, std::vector<Remembered>> remembered_;
   int remembered_keys_ = 0;
-  bool held_scan_ = false;       ///< the joint decision held an observation of this scan
-  std::vector<char> force_new_;  ///< per observation: admitted on a remembered feature, or held
+  CoverageGrid coverage_;           ///< looks per cell (coverage_cell > 0)
+  std::vector<double> miss_table_;  ///< (1 - P_D)^n for n = 0..coverage_max_looks
+  bool held_scan_ = false;          ///< the joint decision held an observation of this scan
+  std::vector<char> force_new_;     ///< per observation: admitted on a remembered feature, or held
 
   Case last_case_ = Case::kNone;
   Eigen::Vector2d last_v_bar_ = Eigen::Vector2d::Zero();

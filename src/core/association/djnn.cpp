@@ -113,6 +113,11 @@ void DJNN::configure(const ParameterSource& params) {
       r.integer("remembered_sightings", def.remembered_sightings, 0, kMaxEvidence);
   p.held_birth_cost = r.nonNegative("held_birth_cost", def.held_birth_cost);
   p.landmark_spacing = r.nonNegative("landmark_spacing", def.landmark_spacing);
+  p.coverage_cell = r.nonNegative("coverage_cell", def.coverage_cell);
+  p.coverage_max_looks = r.integer("coverage_max_looks", def.coverage_max_looks, 0, 65535);
+  if (p.coverage_cell > 0.0 && (p.sensor.clutter_density <= 0.0 || p.loop_closure_age <= 0.0)) {
+    r.fail("coverage_cell", "needs clutter_density > 0 and loop_closure_age > 0");
+  }
   if (p.landmark_spacing > 0.0 && p.sensor.clutter_density <= 0.0) {
     r.fail("landmark_spacing", "needs clutter_density > 0 (the only \"not in the map\" it leaves)");
   }
@@ -152,6 +157,11 @@ void DJNN::configure(const ParameterSource& params) {
   bias_gate_ = chi2Quantile(p_.bias_probability, 2);
   bias_decay_ = 1.0 - 1.0 / p_.bias_window;
   tentative_cell_ = 0.5 * (p_.sensor.max_range + p_.range_margin);
+  coverage_ = CoverageGrid(p_.coverage_cell > 0.0 ? p_.coverage_cell : 1.0);
+  miss_table_.assign(1, 1.0);
+  for (int n = 1; n <= p_.coverage_max_looks; ++n) {
+    miss_table_.push_back(miss_table_.back() * (1.0 - p_.sensor.detection_probability));
+  }
   if (p_.penalty_region == "valid") {
     penalty_radial_ = -p_.range_margin;
     penalty_lateral_ = -(p_.angle_margin * p_.sensor.max_range);
@@ -174,6 +184,7 @@ void DJNN::reset() {
   pending_new_.clear();
   remembered_.clear();
   remembered_keys_ = 0;
+  coverage_.clear();
   force_new_.clear();
   held_window_.clear();
   held_streak_ = 0;
@@ -451,6 +462,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
     for (LandmarkId id : result.remove) last_paired_.erase(id);
     for (LandmarkId id : result.remove) remembered_.erase(id);  // their anchor is gone
   }
+  recordCoverage();
   return result;
 }
 
@@ -710,7 +722,9 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
     }
     if (gated.empty() && kept.empty()) continue;
     any_extra = any_extra || !kept.empty();
-    if (p_.landmark_spacing > 0.0) problem.null_costs.push_back(unmappedCostOf(ctx, i, gated));
+    if (p_.landmark_spacing > 0.0 || p_.coverage_cell > 0.0) {
+      problem.null_costs.push_back(unmappedCostOf(ctx, i, gated));
+    }
     problem.obs.push_back(i);
     problem.candidates.push_back(std::move(gated));
     problem.extra.push_back(std::move(kept));

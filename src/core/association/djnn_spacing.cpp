@@ -19,7 +19,8 @@ namespace ekf_slam {
 // the pose uncertain by a marker spacing the source may lie anywhere near and nothing changes.
 double DJNN::unmappedCostOf(const AssociationContext& ctx, int obs,
                             const std::vector<int>& gated) const {
-  const double full = -2.0 * std::log(p_.landmark_density + p_.sensor.clutter_density);
+  const double full = -2.0 * std::log(unmappedDensityOf(ctx, obs) + p_.sensor.clutter_density);
+  if (p_.landmark_spacing <= 0.0) return full;
   const Observation& o = ctx.observations()[obs];
   Matrix23d G_pose;
   Eigen::Matrix2d G_obs;

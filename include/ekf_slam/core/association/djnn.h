@@ -18,6 +18,7 @@
 #include "ekf_slam/core/association/held_window.h"
 #include "ekf_slam/core/association/joint_ml.h"
 #include "ekf_slam/core/chi2.h"
+#include "ekf_slam/core/coverage_grid.h"
 #include "ekf_slam/core/data_association.h"
 #include "ekf_slam/core/sensor_model.h"
 
@@ -137,6 +138,14 @@ class DJNN : public DataAssociation {
     /// -2 ln margin a decision weighed with held scans must pass (0: joint_margin). The evidence
     /// of a window is larger than one scan's, but the margin is still a per-test error rate.
     double held_window_margin = 0.0;
+    /// Side [m] of the cells of a coverage grid counting the scans whose sensor region covered
+    /// each cell (0 = off; needs loop_closure_age and clutter_density > 0). In the joint decision
+    /// an observation's "not in the map" is charged at landmark_density (1 - P_D)^n +
+    /// clutter_density, n the looks at its source (capped at coverage_max_looks), averaged over
+    /// the source's position uncertainty: where the sensor looked often an unmapped landmark is
+    /// unlikely. "Where the sensor has looked" in docs/djnn.md.
+    double coverage_cell = 0.0;
+    int coverage_max_looks = 10;  ///< cap on n (successive looks are not independent)
     /// Slowest speed [m/s] of a moving object that must be kept out of the map; 0 = off. With
     /// it, the sightings of a tentative feature are also fitted with a constant-velocity track:
     /// its velocity must pass v^T Sigma_v^-1 v <= chi2(2, static_probability) (else the feature
@@ -287,6 +296,11 @@ class DJNN : public DataAssociation {
   /// candidates (landmark_spacing).
   double unmappedCostOf(const AssociationContext& ctx, int obs,
                         const std::vector<int>& gated) const;
+  /// landmark_density times the chance that a landmark at the source of observation `obs` is
+  /// not in the map given the looks there (coverage_cell; landmark_density when off).
+  double unmappedDensityOf(const AssociationContext& ctx, int obs) const;
+  /// Counts this scan's sensor region in the coverage grid (coverage_cell > 0).
+  void recordCoverage();
   /// Anchors tentative feature `slot` to the nearest local landmark (remembered_sightings).
   void anchorTentative(const AssociationContext& ctx, int slot);
   void moveTentative(int slot, const Eigen::Vector2d& pos);
@@ -350,10 +364,12 @@ class DJNN : public DataAssociation {
   /// Remembered features by anchor landmark (remembered_sightings).
   std::unordered_map<LandmarkId, std::vector<Remembered>> remembered_;
   int remembered_keys_ = 0;
-  bool held_scan_ = false;         ///< the joint decision held an observation of this scan
-  HeldWindow held_window_;         ///< held scans of the closure (held_window_scans)
-  std::uint64_t held_streak_ = 0;  ///< consecutive joint scans with something held
-  std::vector<char> force_new_;    ///< per observation: admitted on a remembered feature, or held
+  CoverageGrid coverage_;           ///< looks per cell (coverage_cell > 0)
+  std::vector<double> miss_table_;  ///< (1 - P_D)^n for n = 0..coverage_max_looks
+  bool held_scan_ = false;          ///< the joint decision held an observation of this scan
+  HeldWindow held_window_;          ///< held scans of the closure (held_window_scans)
+  std::uint64_t held_streak_ = 0;   ///< consecutive joint scans with something held
+  std::vector<char> force_new_;     ///< per observation: admitted on a remembered feature, or held
 
   Case last_case_ = Case::kNone;
   Eigen::Vector2d last_v_bar_ = Eigen::Vector2d::Zero();

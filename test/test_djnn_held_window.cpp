@@ -140,16 +140,17 @@ struct Outcome {
   int scans = 0;  ///< scans until the first pairing (or all)
 };
 
-// Runs `noisy` noisy scans then, if `shifted`, the shifted one; stops at the first scan that pairs.
-Outcome run(int window, int noisy, bool shifted, double margin = 0.0) {
+// Runs `noisy` noisy scans then `shifted` shifted ones; stops at the first scan that pairs.
+Outcome run(int window, int noisy, int shifted, double margin = 0.0, int confirmations = 0) {
   Row r;
   DJNN d = makeDjnn({{"loop_closure_age", "30"},
                      {"landmark_density", "0.3"},
                      {"held_window_scans", std::to_string(window)},
-                     {"held_window_margin", std::to_string(margin)}});
+                     {"held_window_margin", std::to_string(margin)},
+                     {"held_confirmations", std::to_string(confirmations)}});
   std::mt19937 rng(3);
   Outcome out;
-  for (int scan = 0; scan < noisy + (shifted ? 1 : 0); ++scan) {
+  for (int scan = 0; scan < noisy + shifted; ++scan) {
     if (scan > 0) r.wait();
     if (scan < noisy) {
       r.observe(&rng);
@@ -190,6 +191,23 @@ TEST(DJNNHeldWindow, OneScansNoiseNoLongerDecidesAShift) {
   EXPECT_EQ(alone.wrong, 4);  // the scene is one that decides wrongly scan by scan
   const Outcome window = run(30, 1, true);
   EXPECT_EQ(window.wrong, 0);
+}
+
+// held_confirmations (djnn_confirm.cpp): the shifted scan follows a held scan whose joint best
+// was the truth, so its lead (a pose correction one marker spacing away) did not repeat: held.
+// The same shifted scan again repeats its own lead and is decided.
+TEST(DJNNHeldConfirmations, OnlyALeadThatRepeatsIsDecided) {
+  const Outcome confirmed = run(0, 1, 1, 0.0, 1);
+  EXPECT_EQ(confirmed.right + confirmed.wrong, 0);  // off, this scan decides the shift (above)
+  const Outcome repeated = run(0, 1, 2, 0.0, 1);
+  EXPECT_EQ(repeated.scans, 3);
+  EXPECT_EQ(repeated.wrong, 4);
+  // Two confirmations: the second shifted scan still follows a held scan led by the truth.
+  const Outcome twice = run(0, 1, 2, 0.0, 2);
+  EXPECT_EQ(twice.right + twice.wrong, 0);
+  EXPECT_EQ(run(0, 1, 3, 0.0, 2).wrong, 4);
+  EXPECT_EQ(DJNN().params().held_confirmations, 0);
+  EXPECT_THROW(makeDjnn({{"held_confirmations", "-1"}}), ParameterError);
 }
 
 TEST(DJNNHeldWindow, OffByDefaultAndValidated) {

@@ -123,6 +123,7 @@ void DJNN::configure(const ParameterSource& params) {
   }
   p.held_window_scans = r.integer("held_window_scans", def.held_window_scans, 0, 1000);
   p.held_window_margin = r.nonNegative("held_window_margin", def.held_window_margin);
+  p.held_confirmations = r.integer("held_confirmations", def.held_confirmations, 0, 100);
   if (p.loop_closure_age > 0.0 && p.landmark_density + p.sensor.clutter_density <= 0.0) {
     r.fail(
         "loop_closure_age",
@@ -187,6 +188,7 @@ void DJNN::reset() {
   coverage_.clear();
   force_new_.clear();
   held_window_.clear();
+  held_leads_.clear();
   held_streak_ = 0;
   last_case_ = Case::kNone;
   last_v_bar_.setZero();
@@ -658,6 +660,7 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
     stats_.held_streak_scans += held_streak_;
     held_streak_ = 0;
     held_window_.clear();
+    held_leads_.clear();
     return false;
   }
   // Remembered features enter as virtual observations paired with their anchor landmark: the
@@ -738,12 +741,16 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
   JointMlDecision d = jointMaximumLikelihood(
       ectx, problem, window ? std::max(kWindowSearch * p_.joint_margin, margin) : margin);
   if (window) heldWindowDecision(ctx, ectx, problem, &d);
+  // After held scans, a lead that did not lead them is one scan's noise: held again.
+  Lead lead;
+  if (p_.held_confirmations > 0) lead = leadOf(ctx, problem, d);
+  const bool unconfirmed = !held_leads_.empty() && !leadRepeats(lead);
   held_scan_ = false;
   stats_.joint_incomplete += !d.complete;
   std::vector<int> held;
   for (std::size_t k = 0; k < problem.obs.size(); ++k) {
     const int i = problem.obs[k];
-    if (!d.complete || d.alternative_cost[k] < d.best_cost + margin) {
+    if (!d.complete || unconfirmed || d.alternative_cost[k] < d.best_cost + margin) {
       held.push_back(static_cast<int>(k));
       assign_[i] = -1;
       ++stats_.joint_held;
@@ -777,8 +784,13 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
     stats_.held_streaks += held_streak_ > 0;
     stats_.held_streak_scans += held_streak_;
     held_streak_ = 0;
+    held_leads_.clear();
   } else {
     ++held_streak_;
+    if (p_.held_confirmations > 0) {
+      held_leads_.push_back(lead);
+      while (static_cast<int>(held_leads_.size()) > p_.held_confirmations) held_leads_.pop_front();
+    }
   }
   if (p_.held_window_scans > 0) keepHeld(ctx, ectx, problem, held);
   return true;

@@ -178,6 +178,10 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
       // Two markers are never closer than this: a source that close to a mapped one is that
       // marker or clutter (docs/djnn.md, "The other failing seeds").
       if (world.clutter_rate > 0.0) p["landmark_spacing"] = text(leastSpacing(world.landmarks));
+      // One held scan's noise passing the margin no longer decides a closure: its lead must
+      // have led the held scan before (docs/djnn.md, "A held closure decided only on a lead
+      // that repeats").
+      p["held_confirmations"] = "1";
     }
   }
   const double R = coveringRange(world);

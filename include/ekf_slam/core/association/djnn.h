@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -146,6 +147,12 @@ class DJNN : public DataAssociation {
     /// unlikely. "Where the sensor has looked" in docs/djnn.md.
     double coverage_cell = 0.0;
     int coverage_max_looks = 10;  ///< cap on n (successive looks are not independent)
+    /// With loop_closure_age: a scan that follows held scans of a closure decides it only if its
+    /// joint best implies the same pose correction (the mean world-frame offset of its paired
+    /// observations' sources from their landmarks, within chi2(2, individual_probability)) as the
+    /// joint best of each of the last this many held scans; else it is held too. 0 = off. "A held
+    /// closure decided only on a lead that repeats".
+    int held_confirmations = 0;
     /// Slowest speed [m/s] of a moving object that must be kept out of the map; 0 = off. With
     /// it, the sightings of a tentative feature are also fitted with a constant-velocity track:
     /// its velocity must pass v^T Sigma_v^-1 v <= chi2(2, static_probability) (else the feature
@@ -281,6 +288,17 @@ class DJNN : public DataAssociation {
   /// in the window, or clears it when nothing was held.
   void keepHeld(const AssociationContext& ctx, const AssociationContext& ectx,
                 const JointMlProblem& problem, const std::vector<int>& held);
+  /// The pose correction a joint hypothesis implies (held_confirmations, djnn_confirm.cpp).
+  struct Lead {
+    bool valid = false;   ///< a complete decision
+    bool paired = false;  ///< it pairs an observation with a map landmark
+    Eigen::Vector2d offset = Eigen::Vector2d::Zero();  ///< mean source - landmark, world frame
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();     ///< its covariance, the pose's excluded
+  };
+  Lead leadOf(const AssociationContext& ctx, const JointMlProblem& problem,
+              const JointMlDecision& d) const;
+  /// True when `lead` agrees with every held scan's lead kept in held_leads_.
+  bool leadRepeats(const Lead& lead) const;
   /// Adds to the candidates the landmarks a pose error of three standard deviations could bring
   /// into view that gate with an observation (for the joint decision).
   void widenCandidates(const AssociationContext& ctx);
@@ -368,6 +386,7 @@ class DJNN : public DataAssociation {
   std::vector<double> miss_table_;  ///< (1 - P_D)^n for n = 0..coverage_max_looks
   bool held_scan_ = false;          ///< the joint decision held an observation of this scan
   HeldWindow held_window_;          ///< held scans of the closure (held_window_scans)
+  std::deque<Lead> held_leads_;     ///< the last held scans' joint best (held_confirmations)
   std::uint64_t held_streak_ = 0;   ///< consecutive joint scans with something held
   std::vector<char> force_new_;     ///< per observation: admitted on a remembered feature, or held
 

@@ -656,11 +656,8 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
     }
   }
   if (!old) {
-    stats_.held_streaks += held_streak_ > 0;
-    stats_.held_streak_scans += held_streak_;
-    held_streak_ = 0;
+    endHeldStreak();
     held_window_.clear();
-    held_leads_.clear();
     return false;
   }
   // Remembered features enter as virtual observations paired with their anchor landmark: the
@@ -781,10 +778,7 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
     }
   }
   if (held.empty()) {
-    stats_.held_streaks += held_streak_ > 0;
-    stats_.held_streak_scans += held_streak_;
-    held_streak_ = 0;
-    held_leads_.clear();
+    endHeldStreak();
   } else {
     ++held_streak_;
     if (p_.held_confirmations > 0) {
@@ -794,6 +788,14 @@ bool DJNN::jointDecision(const AssociationContext& ctx) {
   }
   if (p_.held_window_scans > 0) keepHeld(ctx, ectx, problem, held);
   return true;
+}
+
+// A closure is no longer held: count the streak (stats) and forget the leads it kept.
+void DJNN::endHeldStreak() {
+  stats_.held_streaks += held_streak_ > 0;
+  stats_.held_streak_scans += held_streak_;
+  held_streak_ = 0;
+  held_leads_.clear();
 }
 
 // --- evidence (eq. 9) ----------------------------------------------------------------------------

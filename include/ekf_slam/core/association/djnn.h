@@ -299,6 +299,8 @@ class DJNN : public DataAssociation {
               const JointMlDecision& d) const;
   /// True when `lead` agrees with every held scan's lead kept in held_leads_.
   bool leadRepeats(const Lead& lead) const;
+  /// Ends a streak of held joint scans: counts it in the stats, drops the kept leads.
+  void endHeldStreak();
   /// Adds to the candidates the landmarks a pose error of three standard deviations could bring
   /// into view that gate with an observation (for the joint decision).
   void widenCandidates(const AssociationContext& ctx);

@@ -25,7 +25,7 @@ void DJNN::heldWindowDecision(const AssociationContext& ctx, const AssociationCo
   if (!d->complete) return;  // held anyway
   ++stats_.window_scans;
   const int m = static_cast<int>(problem.obs.size());
-  const double null_cost = -2.0 * std::log(p_.landmark_density + p_.sensor.clutter_density);
+  const double null_cost = problem.null_cost;  // the uniform one: landmark + clutter density
   const EkfSlam& ekf = ctx.ekf();
   const std::vector<CarriedScan>& scans = held_window_.scans(ctx.robotPose());
   const int K = static_cast<int>(scans.size());

@@ -19,8 +19,10 @@ namespace ekf_slam {
 // the pose uncertain by a marker spacing the source may lie anywhere near and nothing changes.
 double DJNN::unmappedCostOf(const AssociationContext& ctx, int obs,
                             const std::vector<int>& gated) const {
-  const double full = -2.0 * std::log(unmappedDensityOf(ctx, obs) + p_.sensor.clutter_density);
-  if (p_.landmark_spacing <= 0.0) return full;
+  const auto full = [&] {
+    return -2.0 * std::log(unmappedDensityOf(ctx, obs) + p_.sensor.clutter_density);
+  };
+  if (p_.landmark_spacing <= 0.0) return full();
   const Observation& o = ctx.observations()[obs];
   Matrix23d G_pose;
   Eigen::Matrix2d G_obs;
@@ -39,7 +41,7 @@ double DJNN::unmappedCostOf(const AssociationContext& ctx, int obs,
       return -2.0 * std::log(p_.sensor.clutter_density);
     }
   }
-  return full;
+  return full();  // the coverage query only when the spacing rule did not decide
 }
 
 }  // namespace ekf_slam

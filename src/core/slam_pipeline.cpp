@@ -113,6 +113,9 @@ void SlamPipeline::reset() {
   last_scan_ranges_.clear();
   odom_pose_at_time_.setZero();
   pending_steps_ = 0;
+  motion_valid_ = false;
+  motion_.setZero();
+  motion_covariance_.setZero();
   lost_ = false;
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   share_window_.clear();
@@ -631,9 +634,13 @@ Eigen::Matrix3d SlamPipeline::poseCovariance() const {
 void SlamPipeline::applyPendingMotion() const {
   if (pending_steps_ == 0) return;
   if (lost_ && !window_.empty()) window_.addMotion(pending_.F, pending_.Q);
-  // The odometry alone, for re-deriving past poses from a fix (rederiveTracked).
-  odometry_ = composePose(odometry_, composePose(inversePose(ekf_.pose()), pending_.pose));
-  odometry_.z() = wrapAngle(odometry_.z());
+  // The odometry alone, for re-deriving past poses from a fix (rederiveTracked), and since the
+  // last scan, for a smoother (ScanReport::motion).
+  const Eigen::Vector3d delta = composePose(inversePose(ekf_.pose()), pending_.pose);
+  odometry_ = composePose(odometry_, delta);
+  motion_covariance_ =
+      carriedCovariance(motion_, motion_covariance_, delta, ekf_.pose().z(), pending_.Q);
+  motion_ = composePose(motion_, delta);
   if (!tracked_.empty()) {
     TrackedPose& t = tracked_.back();
     t.Q = pending_.F * t.Q * pending_.F.transpose() + pending_.Q;
@@ -647,6 +654,17 @@ void SlamPipeline::applyPendingMotion() const {
     ekf_.predict(pending_);
   }
   pending_steps_ = 0;
+}
+
+void SlamPipeline::numberScan(ScanReport* report) {
+  report->scan = scans_++;
+  ++counters_.scans;
+  report->has_motion = motion_valid_;
+  report->motion = motion_;
+  report->motion_covariance = motion_covariance_;
+  motion_valid_ = true;
+  motion_.setZero();
+  motion_covariance_.setZero();
 }
 
 void SlamPipeline::compose(const MotionStep& s) {
@@ -827,8 +845,7 @@ ScanReport SlamPipeline::processScan(double stamp, const LaserScanData& input) {
   if (report.geometry_error) {
     // Trees would be placed at wrong bearings: the scan is only a time step.
     ++counters_.inconsistent_scans;
-    ++counters_.scans;
-    report.scan = scans_++;
+    numberScan(&report);
     return report;
   }
 
@@ -867,8 +884,7 @@ ScanReport SlamPipeline::processScan(double stamp, const LaserScanData& input) {
     // No beams (or no valid beam, or no geometry): a sensor fault, not "nothing seen", so the
     // associator is not told (DJNN would count every landmark in view as missed).
     ++counters_.empty_scans;
-    ++counters_.scans;
-    report.scan = scans_++;
+    numberScan(&report);
     return report;
   }
   return associateAndUpdate(report.stamp, std::move(observations), std::move(report));
@@ -960,8 +976,7 @@ int SlamPipeline::sanitise(std::size_t n, AssociationResult* r) {
 ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observation> observations,
                                             ScanReport report) {
   report.observations = std::move(observations);
-  report.scan = scans_++;
-  ++counters_.scans;
+  numberScan(&report);
   const std::vector<Observation>& obs = report.observations;
   const std::size_t n = obs.size();
   if (lost_) {
@@ -1086,22 +1101,22 @@ const LandmarkInfo& SlamPipeline::landmarkInfo(LandmarkId id) const {
 
 // --- map files -----------------------------------------------------------------------------------
 
-void SlamPipeline::saveMap(const std::string& path) const {
-  const EkfSlam& ekf = this->ekf();
+void SlamPipeline::saveMap(const std::string& path) const { saveMap(path, mapLandmarks()); }
+
+void SlamPipeline::saveMap(const std::string& path, const std::vector<MapLandmark>& map) const {
   std::ofstream out(path);
   if (!out) throw std::runtime_error("map file '" + path + "': cannot open for writing");
   out << kMapHeader << "\n"
-      << "# " << ekf.numLandmarks() << " landmarks; map frame, metres\n"
+      << "# " << map.size() << " landmarks; map frame, metres\n"
       << "# id x y cov_xx cov_xy cov_yy diameter times_observed\n";
   char line[512];
-  for (std::size_t k = 0; k < ekf.numLandmarks(); ++k) {
-    const LandmarkId id = ekf.landmarkIds()[k];
-    const Eigen::Vector2d m = ekf.landmark(static_cast<int>(k));
-    const Eigen::Matrix2d C = ekf.landmarkCovariance(static_cast<int>(k));
-    const LandmarkInfo& info = landmarkInfo(id);
+  for (const MapLandmark& l : map) {
+    const Eigen::Vector2d& m = l.position;
+    const Eigen::Matrix2d& C = l.covariance;
+    const LandmarkInfo& info = landmarkInfo(l.id);
     // %.17g: doubles round-trip exactly.
     std::snprintf(line, sizeof(line), "%lld %.17g %.17g %.17g %.17g %.17g %.17g %u\n",
-                  static_cast<long long>(id), m.x(), m.y(), C(0, 0), C(0, 1), C(1, 1),
+                  static_cast<long long>(l.id), m.x(), m.y(), C(0, 0), C(0, 1), C(1, 1),
                   info.diameter, info.times_observed);
     out << line;
   }

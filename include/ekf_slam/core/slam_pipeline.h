@@ -247,6 +247,12 @@ struct ScanReport {
   double extraction_s = 0.0;        ///< wall times
   double association_s = 0.0;
   double update_s = 0.0;
+  /// The odometry since the previous scan: the motion in that scan's vehicle frame (the filter's
+  /// prediction, less its start) and its covariance (the process noise in that frame), for a
+  /// batch smoother (core/smoothing/). False for the first scan after construction or reset().
+  bool has_motion = false;
+  Eigen::Vector3d motion = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d motion_covariance = Eigen::Matrix3d::Zero();
   double nis = 0.0;  ///< of the batch update
   int nis_dof = 0;
   bool update_ok = true;  ///< false when the EKF rejected the update
@@ -420,6 +426,9 @@ class SlamPipeline {
   ///   id x y cov_xx cov_xy cov_yy diameter times_observed
   /// (diameter "nan" when unknown). Throws std::runtime_error when the file cannot be written.
   void saveMap(const std::string& path) const;
+  /// The same file for other estimates of the map's landmarks (e.g. a smoother's): positions and
+  /// covariances from `map`, diameter and times observed from the pipeline's bookkeeping by id.
+  void saveMap(const std::string& path, const std::vector<MapLandmark>& map) const;
   /// Replaces the map with a saved one; loaded landmarks keep their ids and covariances and are
   /// uncorrelated with the pose and each other. The pose keeps its estimate and covariance
   /// unless reset_pose (then: the initial pose). The associator is reset and told of every loaded
@@ -441,6 +450,8 @@ class SlamPipeline {
   /// pending_ <- step o pending_ (a non-finite step is counted as rejected odometry).
   void compose(const MotionStep& step);
   void applyPendingMotion() const;
+  // Gives the report the next scan number and the odometry since the previous scan.
+  void numberScan(ScanReport* report);
   ScanReport associateAndUpdate(double stamp, std::vector<Observation> observations,
                                 ScanReport report);
   /// Makes a result usable whatever the associator returned; returns the number of fixes.
@@ -563,6 +574,11 @@ class SlamPipeline {
   // The odometry alone integrated (the estimate's motion without updates, jumps or fixes), in an
   // arbitrary frame: the relative motion between any two scans, tracked or lost.
   mutable Eigen::Vector3d odometry_ = Eigen::Vector3d::Zero();
+  // The odometry since the last numbered scan (ScanReport::motion); valid once a scan was
+  // numbered since construction or reset().
+  mutable Eigen::Vector3d motion_ = Eigen::Vector3d::Zero();
+  mutable Eigen::Matrix3d motion_covariance_ = Eigen::Matrix3d::Zero();
+  bool motion_valid_ = false;
   void rememberPose(const ScanReport& report);  // lost: rememberLostPose; else tracked_
   // At a fix (the pose already updated, `dead_reckoned` the estimate before): the newest tracked
   // scans whose estimate disagrees with the fix carried back, oldest first.

@@ -34,6 +34,13 @@ if(CATKIN_ENABLE_TESTING)
   add_dependencies(test_offline_recovery ekf_slam_association_plugins
                    ekf_slam_relocalisation_plugins)
 
+  catkin_add_gtest(test_offline_smoothing test/test_offline_smoothing.cpp)
+  target_include_directories(test_offline_smoothing PRIVATE ${PROJECT_SOURCE_DIR}/test)
+  target_link_libraries(test_offline_smoothing ekf_slam_simulation_bag ekf_slam_offline_runner
+                        nlohmann_json::nlohmann_json)
+  add_dependencies(test_offline_smoothing ekf_slam_association_plugins
+                   ekf_slam_relocalisation_plugins)
+
   # launch/simulation.launch (node + rosbag play) on the tiny world's bag, started by the test
   # itself with roslaunch once it has written the bag and its YAML.
   add_rostest_gtest(test_simulation_launch test/simulation.test test/test_simulation_launch.cpp)

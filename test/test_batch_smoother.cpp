@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/pose2d.h"
@@ -180,6 +181,25 @@ TEST(BatchSmoother, DropsObservationsOfLandmarksNotInTheMap) {
   ASSERT_TRUE(r.ok) << r.error;
   EXPECT_EQ(r.dropped_observations, of_removed);
   EXPECT_EQ(r.landmarks.size(), w.start.size());
+}
+
+TEST(BatchSmoother, CovariancesOfTheFirstLandmarksOnly) {
+  const Loop w = makeLoop(8);
+  const SmoothingResult all = smoothRun(w.scans, w.start, w.model);
+  SmootherParams p;
+  p.landmark_covariances = 5;
+  const SmoothingResult some = smoothRun(w.scans, w.start, w.model, p);
+  ASSERT_TRUE(all.ok && some.ok);
+  ASSERT_EQ(some.landmark_covariances.size(), w.start.size());
+  for (std::size_t k = 0; k < w.start.size(); ++k) {
+    if (k < 5) {
+      EXPECT_LT((some.landmark_covariances[k] - all.landmark_covariances[k]).norm(), 1e-12);
+      EXPECT_GT(some.landmark_covariances[k].determinant(), 0.0);
+    } else {
+      EXPECT_FALSE(some.landmark_covariances[k].allFinite()) << k;
+    }
+    EXPECT_EQ(some.landmarks[k].position, all.landmarks[k].position);
+  }
 }
 
 TEST(BatchSmoother, BadInputIsAnErrorNotANaN) {

@@ -16,32 +16,12 @@
 #include "ekf_slam/core/slam_pipeline.h"
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/plugin_loader.h"
-#include "ekf_slam/ros/simulation_bag.h"
-#include "offline_test_options.h"
-#include "test_files.h"
+#include "simulated_bag.h"
 
 namespace ekf_slam {
 namespace {
 
-using test_files::TempDir;
-
-// A simulated bag and its YAML in a temporary folder.
-struct SimulatedBag {
-  explicit SimulatedBag(const std::string& world) {
-    SimulationBagOptions o;
-    o.world = world;
-    o.out_path = (dir.path() / (world + ".bag")).string();
-    o.markers = false;
-    std::ostringstream log;
-    summary = writeSimulationBag(o, log);
-  }
-  OfflineOptions options(const std::string& out) const {
-    return test_files::quietOfflineOptions(summary.bag_path, summary.params_path,
-                                           (dir.path() / out).string());
-  }
-  TempDir dir;
-  SimulationBagSummary summary;
-};
+using test_files::SimulatedBag;
 
 nlohmann::json metrics(const OfflineSummary& s) { return nlohmann::json::parse(s.metrics_json); }
 

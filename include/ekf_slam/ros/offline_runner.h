@@ -5,7 +5,7 @@
 //
 //   rosrun ekf_slam ekf_slam_offline --bag FILE --out DIR [--params YAML] [--associator NAME]
 //                                    [--relocaliser NAME] [--load-map FILE [--unknown-pose]]
-//                                    [--kidnap SCAN:DX,DY,DYAW ...]
+//                                    [--kidnap SCAN:DX,DY,DYAW ...] [--smooth]
 //                                    [--dump-problem SCAN] [--no-plot] [--no-progress]
 //                                    [--scan-topic T] [--odom-topic T] [--observations-topic T]
 //                                    [--gps-topic T] [--ground-truth-topic T]
@@ -62,6 +62,11 @@ struct OfflineOptions {
   /// Park); with filter cekf every scan brings the whole map up to date (the same estimates,
   /// slower).
   bool landmark_trace = false;
+  /// After the run, the batch smoother (core/smoothing/, docs/smoothing.md) re-estimates every
+  /// scan pose and landmark from all of the run's odometry and pairings:
+  /// DIR/trajectory_smoothed.csv, DIR/map_smoothed.txt (~save_map format) and metrics.json
+  /// "smoothing". Not with load_map (the loaded map's own information would be dropped).
+  bool smooth = false;
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
   std::string observations_topic = "/observations";

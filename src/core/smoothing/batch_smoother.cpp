@@ -127,11 +127,19 @@ class Problem {
   std::size_t unknowns() const { return 3 * poses_ + 2 * landmark_input_.size(); }
   const std::vector<int>& landmarkInput() const { return landmark_input_; }
   int landmarkOffset(int col) const { return 3 * poses_ + 2 * col; }
+  // The last evaluate()'s cost of each kind per scalar residual.
+  double odometryCostPerResidual() const {
+    return links_.empty() ? 0.0 : odometry_cost_ / (3.0 * links_.size());
+  }
+  double observationCostPerResidual() const {
+    return observations_.empty() ? 0.0 : observation_cost_ / (2.0 * observations_.size());
+  }
 
   // The sum of squared Mahalanobis residuals at x; with A and b, also the normal equations
   // A dx = b of the linearisation (A's lower triangle).
   double evaluate(const Eigen::VectorXd& x, Sparse* A = nullptr, Eigen::VectorXd* b = nullptr) {
     double cost = 0.0;
+    odometry_cost_ = observation_cost_ = 0.0;
     if (A) {
       triplets_.clear();
       b->setZero(x.size());
@@ -150,7 +158,7 @@ class Problem {
       Eigen::Matrix3d Ja, Jb;
       Eigen::Vector3d v = l.mean - relativePose(x.segment<3>(oa), x.segment<3>(ob), &Ja, &Jb);
       v.z() = wrapAngle(v.z());
-      cost += v.dot(l.W * v);
+      odometry_cost_ += v.dot(l.W * v);
       if (!A) continue;
       addLower(&triplets_, oa, oa, Ja, l.W, Ja);
       addLower(&triplets_, ob, ob, Jb, l.W, Jb);
@@ -164,7 +172,7 @@ class Problem {
       Eigen::Matrix2d Hm;
       const Eigen::Vector2d v = RangeBearingModel::innovation(
           t.z, model_.predict(x.segment<3>(op), x.segment<2>(om), t.kind, &Hp, &Hm), t.kind);
-      cost += v.dot(t.W * v);
+      observation_cost_ += v.dot(t.W * v);
       if (!A) continue;
       addLower(&triplets_, op, op, Hp, t.W, Hp);
       addLower(&triplets_, om, om, Hm, t.W, Hm);
@@ -172,6 +180,7 @@ class Problem {
       b->segment<3>(op) += Hp.transpose() * t.W * v;
       b->segment<2>(om) += Hm.transpose() * t.W * v;
     }
+    cost += odometry_cost_ + observation_cost_;
     if (A) {
       A->resize(x.size(), x.size());
       A->setFromTriplets(triplets_.begin(), triplets_.end());
@@ -187,6 +196,7 @@ class Problem {
   std::vector<PoseTerm> links_, priors_;
   Triplets triplets_;
   std::string error_;
+  double odometry_cost_ = 0.0, observation_cost_ = 0.0;
 };
 
 void wrapYaws(int poses, Eigen::VectorXd* x) {
@@ -254,30 +264,37 @@ SmoothingResult smoothRun(const std::vector<SmoothingScan>& scans,
     x = trial;
     cost = problem.evaluate(x, &A, &b);
   }
-  result.final_cost = cost;
+  result.final_cost = problem.evaluate(x);  // at x (the last evaluation may have been a trial)
+  result.odometry_cost_per_residual = problem.odometryCostPerResidual();
+  result.observation_cost_per_residual = problem.observationCostPerResidual();
 
   for (int i = 0; i < n; ++i) result.poses[i] = x.segment<3>(3 * i);
   for (std::size_t c = 0; c < cols.size(); ++c)
     result.landmarks[cols[c]].position = x.segment<2>(problem.landmarkOffset(static_cast<int>(c)));
 
-  if (params.landmark_covariances) {
-    // Marginals: the landmark columns of A^-1 at the solution, a chunk of columns per solve.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  result.landmark_covariances.assign(landmarks.size(), Eigen::Matrix2d::Constant(nan));
+  // The unknowns' columns of the landmarks asked for (cols[c] is column c's input index).
+  std::vector<int> wanted;
+  for (std::size_t c = 0; c < cols.size(); ++c)
+    if (params.landmark_covariances < 0 || cols[c] < params.landmark_covariances)
+      wanted.push_back(static_cast<int>(c));
+  if (!wanted.empty()) {
+    // Marginals: those columns of A^-1 at the solution, a chunk of columns per solve.
     if (!factorise()) return result;
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    result.landmark_covariances.assign(landmarks.size(), Eigen::Matrix2d::Constant(nan));
     constexpr int kChunk = 64;
-    for (std::size_t c0 = 0; c0 < cols.size(); c0 += kChunk) {
-      const int m = static_cast<int>(std::min<std::size_t>(kChunk, cols.size() - c0));
+    for (std::size_t c0 = 0; c0 < wanted.size(); c0 += kChunk) {
+      const int m = static_cast<int>(std::min<std::size_t>(kChunk, wanted.size() - c0));
       Eigen::MatrixXd E = Eigen::MatrixXd::Zero(x.size(), 2 * m);
       for (int j = 0; j < m; ++j) {
-        const int o = problem.landmarkOffset(static_cast<int>(c0) + j);
+        const int o = problem.landmarkOffset(wanted[c0 + j]);
         E(o, 2 * j) = E(o + 1, 2 * j + 1) = 1.0;
       }
       const Eigen::MatrixXd X = solver.solve(E);
       for (int j = 0; j < m; ++j) {
-        const int o = problem.landmarkOffset(static_cast<int>(c0) + j);
+        const int o = problem.landmarkOffset(wanted[c0 + j]);
         const Eigen::Matrix2d C = X.block<2, 2>(o, 2 * j);
-        result.landmark_covariances[cols[c0 + j]] = 0.5 * (C + C.transpose());
+        result.landmark_covariances[cols[wanted[c0 + j]]] = 0.5 * (C + C.transpose());
       }
     }
   }

@@ -56,9 +56,9 @@ struct SmootherParams {
   /// Floor of a prior's or an odometry link's variances: a filter that knows its start exactly
   /// (zero initial sigma) or a standstill (zero motion noise) still gives a solvable system.
   double min_variance = 1e-10;
-  /// Each landmark's marginal 2x2 covariance (for a saved map): one solve per landmark
-  /// coordinate with the final factorisation.
-  bool landmark_covariances = true;
+  /// The marginal 2x2 covariance (for a saved map) of the first this many input landmarks, the
+  /// rest NaN; negative: of all. One solve per landmark coordinate with the final factorisation.
+  int landmark_covariances = -1;
 };
 
 struct SmoothingResult {
@@ -66,7 +66,7 @@ struct SmoothingResult {
   std::string error;                   ///< why not ok (e.g. the normal equations are singular)
   std::vector<Eigen::Vector3d> poses;  ///< one per input scan
   std::vector<SmoothingLandmark> landmarks;
-  std::vector<Eigen::Matrix2d> landmark_covariances;  ///< empty unless asked for
+  std::vector<Eigen::Matrix2d> landmark_covariances;  ///< one per input landmark (NaN: not asked)
   int iterations = 0;
   bool converged = false;
   /// Sum of squared Mahalanobis residuals (odometry, observations, priors) at the filter's
@@ -76,6 +76,10 @@ struct SmoothingResult {
   double initial_cost = 0.0;
   double final_cost = 0.0;
   std::size_t degrees_of_freedom = 0;
+  /// The solution's cost of each kind of residual per scalar residual (about 1 each when the
+  /// noise the filter assumed fits the data; far below: that noise is inflated for this kind).
+  double observation_cost_per_residual = 0.0;
+  double odometry_cost_per_residual = 0.0;
   std::size_t observations = 0;          ///< observation residuals used
   std::size_t dropped_observations = 0;  ///< paired with landmarks not in the final map
   double seconds = 0.0;

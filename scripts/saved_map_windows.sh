@@ -11,12 +11,16 @@
 # window's fix and the full run's pose over the same seconds are judged with the same transform;
 # per window the median error of the GPS antenna (the laser point) over the fixes the runner does
 # not flag faulty in the GPS_SECONDS after the fix, and over the rest of the window.
-# Prints a table and a summary line; writes OUT/windows.csv.
+# With SMOOTH=1 the full run is smoothed (--smooth, docs/smoothing.md): the windows localise in
+# its map_smoothed.txt, and "the full run's pose" is its smoothed trajectory (the same frame as
+# that map); GPS is moved into the map frame by the smoothed trajectory's own alignment.
+# Prints a table and a summary line; writes OUT/windows.csv. Exits non-zero on a wrong fix.
 #   scripts/saved_map_windows.sh [OUT]       default OUT: $EKF_SLAM_BUILD/saved_map_windows
 # Env: WINDOW (60 s), STEP (120 s between window starts), RELOCALISER (ekf_slam/FGCBB),
 #      GPS_SECONDS (5 s: the GPS fixes after the fix whose median error is the GPS column),
 #      PARAMS (config/victoria_park.yaml; the windows' parameters, the full run's are always that),
-#      VP_BAG (default $EKF_SLAM_BUILD/vp.bag, converted from $VP_DATA if missing).
+#      VP_BAG (default $EKF_SLAM_BUILD/vp.bag, converted from $VP_DATA if missing),
+#      SMOOTH (0; 1: the smoothed map and trajectory, above).
 set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 source "$EKF_SLAM_DEVEL/setup.bash"
@@ -28,11 +32,18 @@ reloc=${RELOCALISER:-ekf_slam/FGCBB}
 bag=${VP_BAG:-$EKF_SLAM_BUILD/vp.bag}
 params=$EKF_SLAM_ROOT/config/victoria_park.yaml
 window_params=${PARAMS:-$params}
+if [[ ${SMOOTH:-0} == 1 ]]; then
+  smooth_arg=--smooth
+  export SMW_MAP=map_smoothed.txt SMW_TRAJ=trajectory_smoothed.csv
+else
+  smooth_arg=
+  export SMW_MAP=map.txt SMW_TRAJ=trajectory.csv
+fi
 [[ -f $bag ]] || rosrun ekf_slam victoria_park_to_bag --data "$VP_DATA" --out "$bag" > /dev/null
 mkdir -p "$out"
 echo "full run (saves the map) ..."
 rosrun ekf_slam ekf_slam_offline --bag "$bag" --params "$params" --out "$out/full" --no-plot \
-  --no-progress > "$out/full.log"
+  --no-progress $smooth_arg > "$out/full.log"
 # The windows, cut in one pass over the bag (the static tf goes into every window).
 /usr/bin/python3 - "$bag" "$out" "$window" "$step" <<'PY'
 import sys, rosbag
@@ -63,10 +74,10 @@ PY
 # run's pose at the window's start, 1 m / 0.05 rad of doubt), so in the saved map's frame. The
 # full run's pose at a time came before the loop closures that later moved the map.
 /usr/bin/python3 - "$out" "$window_params" <<'PY'
-import bisect, csv, math, re, sys
+import bisect, csv, math, os, re, sys
 import rosbag
 out, params = sys.argv[1], sys.argv[2]
-rows = list(csv.DictReader(open(f"{out}/full/trajectory.csv")))
+rows = list(csv.DictReader(open(f"{out}/full/{os.environ['SMW_TRAJ']}")))
 stamps = [float(r["stamp"]) for r in rows]
 text = open(params).read()
 for s in open(f"{out}/starts.txt").read().split():
@@ -90,10 +101,10 @@ for s in open(f"{out}/starts.txt").read().split():
 PY
 for s in $(cat "$out/starts.txt"); do
   rosrun ekf_slam ekf_slam_offline --bag "$out/window_$s.bag" --params "$window_params" \
-    --relocaliser "$reloc" --load-map "$out/full/map.txt" --unknown-pose --out "$out/w_$s" \
+    --relocaliser "$reloc" --load-map "$out/full/$SMW_MAP" --unknown-pose --out "$out/w_$s" \
     --no-plot --no-progress > "$out/w_$s.log" 2>&1 || echo "window $s: run failed (see $out/w_$s.log)"
   rosrun ekf_slam ekf_slam_offline --bag "$out/window_$s.bag" --params "$out/known_$s.yaml" \
-    --load-map "$out/full/map.txt" --out "$out/k_$s" --no-plot --no-progress > "$out/k_$s.log" 2>&1 ||
+    --load-map "$out/full/$SMW_MAP" --out "$out/k_$s" --no-plot --no-progress > "$out/k_$s.log" 2>&1 ||
     echo "window $s, known start: run failed (see $out/k_$s.log)"
   rm -f "$out/window_$s.bag"
 done
@@ -103,7 +114,7 @@ out, gps_seconds = sys.argv[1], float(sys.argv[2])
 def traj(path):
     rows = list(csv.DictReader(open(path)))
     return [float(r["stamp"]) for r in rows], [(float(r["x"]), float(r["y"]), float(r["yaw"])) for r in rows]
-fs, fp = traj(f"{out}/full/trajectory.csv")
+fs, fp = traj(f"{out}/full/{os.environ['SMW_TRAJ']}")
 def at(s, p, t):
     i = min(max(bisect.bisect_left(s, t), 0), len(s) - 1)
     return p[i] if abs(s[i] - t) < 0.05 else None
@@ -111,7 +122,7 @@ def full_at(t):
     return at(fs, fp, t)
 starts = open(f"{out}/starts.txt").read().split()
 saved = {}
-for line in open(f"{out}/full/map.txt"):
+for line in open(f"{out}/full/{os.environ['SMW_MAP']}"):
     f = line.split()
     if len(f) >= 3 and not line.startswith(("#", "ekf_slam_map")):
         saved[int(f[0])] = (float(f[1]), float(f[2]))
@@ -121,6 +132,14 @@ ox, oy, oyaw = (float(v) for v in open(f"{out}/sensor_offset.txt").read().split(
 gps_csv = f"{out}/full/gps.csv"
 gps = [(float(g["stamp"]), (float(g["x_map"]), float(g["y_map"])))
        for g in csv.DictReader(open(gps_csv)) if g["faulty"] == "0"] if os.path.exists(gps_csv) else []
+smoothing = json.load(open(f"{out}/full/metrics.json")).get("smoothing", {})
+if os.environ["SMW_TRAJ"] != "trajectory.csv" and "gps_alignment" in smoothing:
+    # The smoothed trajectory's own alignment (map = R^T (gps - t)), not the online one's.
+    a = smoothing["gps_alignment"]
+    c, si = math.cos(a["yaw"]), math.sin(a["yaw"])
+    gps = [(t, (c * (x - a["x"]) + si * (y - a["y"]), -si * (x - a["x"]) + c * (y - a["y"])))
+           for t, (x, y) in ((float(g["stamp"]), (float(g["x"]), float(g["y"])))
+                             for g in csv.DictReader(open(gps_csv)) if g["faulty"] == "0")]
 def antenna_at(s, p, t):
     """The laser point (the GPS antenna, as the runner takes it) interpolated linearly between the
     two scan poses around t; None outside the trajectory or across a gap of more than 1 s."""
@@ -266,4 +285,6 @@ print(f"GPS (median over the good fixes in the {gps_seconds:g} s after the fix, 
       f"fixes): the fix closer to GPS than the full run in {closer} of {len(with_gps)}; within 2 m of GPS: "
       f"the fix {gps2}, the full run {full2}; over the rest of the window the fix's track closer in "
       f"{closer_rest} of {len(rest)}")
+if wrong:  # relocalisation must never give a confident wrong pose
+    sys.exit(f"{wrong} wrong fixes")
 PY

@@ -43,7 +43,8 @@ if [[ $ctest_rc -ne 0 && $failed -eq 0 ]]; then failed=1; fi  # a crashed binary
 
 # Checks beyond the test binaries, each counted as one test: the README's main command as a user
 # runs it (CI once stayed green while it failed in every fresh clone), on the data set when it is
-# there (in CI it must be) and on the simulated world; catkin_lint --strict; rosdep resolving
+# there (in CI it must be) and on the simulated world; on the data set also the saved-map
+# windows (scripts/saved_map_windows.sh); catkin_lint --strict; rosdep resolving
 # every key of package.xml.
 cd "$EKF_SLAM_ROOT"
 check() {  # check NAME COMMAND...: counted as one test, its output shown when it fails
@@ -60,6 +61,9 @@ check() {  # check NAME COMMAND...: counted as one test, its output shown when i
 }
 if [[ -f "$VP_DATA/aa3_dr.mat" ]]; then
   check demo_victoria_park env DEMO=victoria_park "$EKF_SLAM_ROOT/scripts/demo.sh"
+  # Localisation in the smoothed saved map (docs/relocalisation.md): fails on any wrong fix.
+  check saved_map_windows env SMOOTH=1 "$EKF_SLAM_ROOT/scripts/saved_map_windows.sh" \
+    "$EKF_SLAM_BUILD/saved_map_windows"
 elif [[ ${CI:-} == true ]]; then
   echo "demo_victoria_park: FAILED: no Victoria Park data in $VP_DATA (CI=true needs it)"
   failed=$((failed + 1))

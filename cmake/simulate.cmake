@@ -26,20 +26,15 @@ if(CATKIN_ENABLE_TESTING)
                         nlohmann_json::nlohmann_json)
   add_dependencies(test_simulate ekf_slam_association_plugins)
 
-  # The offline runner's recovery options on simulated kidnapped worlds (loads the plugins).
-  catkin_add_gtest(test_offline_recovery test/test_offline_recovery.cpp)
-  target_include_directories(test_offline_recovery PRIVATE ${PROJECT_SOURCE_DIR}/test)
-  target_link_libraries(test_offline_recovery ekf_slam_simulation_bag ekf_slam_offline_runner
-                        nlohmann_json::nlohmann_json)
-  add_dependencies(test_offline_recovery ekf_slam_association_plugins
-                   ekf_slam_relocalisation_plugins)
-
-  catkin_add_gtest(test_offline_smoothing test/test_offline_smoothing.cpp)
-  target_include_directories(test_offline_smoothing PRIVATE ${PROJECT_SOURCE_DIR}/test)
-  target_link_libraries(test_offline_smoothing ekf_slam_simulation_bag ekf_slam_offline_runner
-                        nlohmann_json::nlohmann_json)
-  add_dependencies(test_offline_smoothing ekf_slam_association_plugins
-                   ekf_slam_relocalisation_plugins)
+  # The offline runner on simulated bags (loads the plugins): its recovery options on kidnapped
+  # worlds, and --smooth.
+  foreach(t test_offline_recovery test_offline_smoothing)
+    catkin_add_gtest(${t} test/${t}.cpp)
+    target_include_directories(${t} PRIVATE ${PROJECT_SOURCE_DIR}/test)
+    target_link_libraries(${t} ekf_slam_simulation_bag ekf_slam_offline_runner
+                          nlohmann_json::nlohmann_json)
+    add_dependencies(${t} ekf_slam_association_plugins ekf_slam_relocalisation_plugins)
+  endforeach()
 
   # launch/simulation.launch (node + rosbag play) on the tiny world's bag, started by the test
   # itself with roslaunch once it has written the bag and its YAML.

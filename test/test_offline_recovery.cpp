@@ -4,7 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -89,15 +88,7 @@ TEST(OfflineRecovery, InjectedKidnapIsRecovered) {
   EXPECT_EQ(j["counters"]["rederived_tracked_poses"].get<int>(), lost_scan - 300);
   const double fix_stamp = j["relocalisation_events"][0]["stamp"].get<double>();
   const auto rows = [](const std::string& dir) {
-    std::ifstream in(dir + "/trajectory.csv");
-    std::string line;
-    std::getline(in, line);
-    std::map<double, Eigen::Vector2d> out;
-    while (std::getline(in, line)) {
-      double t = 0.0, x = 0.0, y = 0.0;
-      if (std::sscanf(line.c_str(), "%lf,%lf,%lf", &t, &x, &y) == 3) out[t] = {x, y};
-    }
-    return out;
+    return test_files::positions(dir + "/trajectory.csv");
   };
   const auto kidnapped = rows(o.out_dir), reference = rows(bag.options("plain").out_dir);
   ASSERT_GT(kidnapped.size(), 300u);

@@ -19,22 +19,10 @@
 namespace ekf_slam {
 namespace {
 
+using test_files::positions;
 using test_files::SimulatedBag;
 
 nlohmann::json metrics(const OfflineSummary& s) { return nlohmann::json::parse(s.metrics_json); }
-
-// (stamp -> x, y) of a CSV whose first three columns are stamp, x, y.
-std::map<double, Eigen::Vector2d> positions(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  std::map<double, Eigen::Vector2d> out;
-  while (std::getline(in, line)) {
-    double t = 0.0, x = 0.0, y = 0.0;
-    if (std::sscanf(line.c_str(), "%lf,%lf,%lf", &t, &x, &y) == 3) out[t] = {x, y};
-  }
-  return out;
-}
 
 // The ids of a map file (~save_map format).
 std::set<long long> mapIds(const std::string& path) {

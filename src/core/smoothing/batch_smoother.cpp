@@ -159,12 +159,7 @@ class Problem {
       Eigen::Vector3d v = l.mean - relativePose(x.segment<3>(oa), x.segment<3>(ob), &Ja, &Jb);
       v.z() = wrapAngle(v.z());
       odometry_cost_ += v.dot(l.W * v);
-      if (!A) continue;
-      addLower(&triplets_, oa, oa, Ja, l.W, Ja);
-      addLower(&triplets_, ob, ob, Jb, l.W, Jb);
-      addLower(&triplets_, ob, oa, Jb, l.W, Ja);
-      b->segment<3>(oa) += Ja.transpose() * l.W * v;
-      b->segment<3>(ob) += Jb.transpose() * l.W * v;
+      if (A) addTerm(oa, Ja, ob, Jb, l.W, v, b);
     }
     for (const ObservationTerm& t : observations_) {
       const int op = 3 * t.scan, om = landmarkOffset(t.landmark);
@@ -173,12 +168,7 @@ class Problem {
       const Eigen::Vector2d v = RangeBearingModel::innovation(
           t.z, model_.predict(x.segment<3>(op), x.segment<2>(om), t.kind, &Hp, &Hm), t.kind);
       observation_cost_ += v.dot(t.W * v);
-      if (!A) continue;
-      addLower(&triplets_, op, op, Hp, t.W, Hp);
-      addLower(&triplets_, om, om, Hm, t.W, Hm);
-      addLower(&triplets_, om, op, Hm, t.W, Hp);
-      b->segment<3>(op) += Hp.transpose() * t.W * v;
-      b->segment<2>(om) += Hm.transpose() * t.W * v;
+      if (A) addTerm(op, Hp, om, Hm, t.W, v, b);
     }
     cost += odometry_cost_ + observation_cost_;
     if (A) {
@@ -189,6 +179,18 @@ class Problem {
   }
 
  private:
+  // The normal equations' part of a residual v (weight W) on two blocks at offsets p < q, whose
+  // prediction has the Jacobians Jp and Jq.
+  template <class Jp_t, class Jq_t, class W_t, class V_t>
+  void addTerm(int p, const Jp_t& Jp, int q, const Jq_t& Jq, const W_t& W, const V_t& v,
+               Eigen::VectorXd* b) {
+    addLower(&triplets_, p, p, Jp, W, Jp);
+    addLower(&triplets_, q, q, Jq, W, Jq);
+    addLower(&triplets_, q, p, Jq, W, Jp);
+    b->segment(p, Jp.cols()) += Jp.transpose() * W * v;
+    b->segment(q, Jq.cols()) += Jq.transpose() * W * v;
+  }
+
   const RangeBearingModel& model_;
   int poses_;
   std::vector<int> landmark_input_;  // column -> index in the input landmarks

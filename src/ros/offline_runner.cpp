@@ -20,7 +20,6 @@
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
-#include <unordered_set>
 #include <utility>
 
 #include <geometry_msgs/PointStamped.h>
@@ -43,7 +42,7 @@
 #include "ekf_slam/core/pipeline_config.h"
 #include "ekf_slam/core/recording_parameter_source.h"
 #include "ekf_slam/core/slam_pipeline.h"
-#include "ekf_slam/core/smoothing/batch_smoother.h"
+#include "ekf_slam/core/smoothing/smoothing_recorder.h"
 #include "ekf_slam/ros/checked_bag_reader.h"
 #include "ekf_slam/ros/conversions.h"
 #include "ekf_slam/ros/ekf_slam_node.h"
@@ -409,56 +408,17 @@ std::string shellQuote(const std::string& s) {
 
 // --- smoothing (--smooth) ------------------------------------------------------------------------
 
-// The prior variance of a scan the smoother takes no odometry into (after a kidnap): enough to
-// keep the system solvable, far too weak to pull the pose [m^2, rad^2].
-constexpr double kUninformative = 1e6;
-
-// A scan for the smoother: the odometry since the previous scan and the observations the filter
-// paired or initialised landmarks from (the pose is filled in at the end, after any lost path).
-SmoothingScan smoothingScan(const ScanReport& r, const Eigen::Matrix3d& pose_covariance) {
-  SmoothingScan s;
-  s.stamp = r.stamp;
-  s.pose_covariance = pose_covariance;
-  s.linked = r.has_motion;
-  s.motion = r.motion;
-  s.motion_covariance = r.motion_covariance;
-  for (std::size_t i = 0; i < r.observations.size() && i < r.association.decision.size(); ++i) {
-    const Decision d = r.association.decision[i];
-    if (d != Decision::kPaired && d != Decision::kNew) continue;
-    const Observation& ob = r.observations[i];
-    s.observations.push_back({r.association.landmark[i], ob.z, ob.R, ob.kind});
-  }
-  return s;
-}
-
 // Smooths the run and writes trajectory_smoothed.csv and map_smoothed.txt; returns metrics.json's
 // "smoothing" object (with the smoothed trajectory's GPS error when the bag has GPS, and its
 // error against the true poses beside the filter's, the same way, when it has them).
 nlohmann::json writeSmoothed(const std::string& dir, const SlamPipeline& pipeline,
-                             std::vector<SmoothingScan> scans, const std::vector<PoseRow>& poses,
-                             const std::unordered_map<LandmarkId, Eigen::Vector2d>& created,
+                             const SmoothingRecorder& recorder,
                              const std::vector<StampedPoint>& gps,
                              const std::vector<std::pair<double, Eigen::Vector3d>>& truth,
                              std::ostream& log) {
-  for (std::size_t i = 0; i < scans.size(); ++i) scans[i].pose = poses[i].pose;
-  // Every landmark the run made is an unknown, the final map's first: the pairings of one removed
-  // later (missed, or made again under a new id) were the filter's evidence too.
-  const std::vector<MapLandmark> map = pipeline.mapLandmarks();
-  std::vector<SmoothingLandmark> start;
-  std::unordered_set<LandmarkId> in_map;
-  for (const MapLandmark& l : map) {
-    start.push_back({l.id, l.position});
-    in_map.insert(l.id);
-  }
-  const std::size_t final_landmarks = start.size();
-  for (const auto& [id, p] : created)
-    if (in_map.count(id) == 0) start.push_back({id, p});
-  // In id order, so that a run's result does not depend on the hash map's order.
-  std::sort(start.begin() + final_landmarks, start.end(),
-            [](const SmoothingLandmark& a, const SmoothingLandmark& b) { return a.id < b.id; });
-  SmootherParams params;
-  params.landmark_covariances = static_cast<int>(final_landmarks);  // the saved map's
-  const SmoothingResult r = smoothRun(scans, start, pipeline.observationModel(), params);
+  const SmoothingResult r = recorder.smooth(pipeline);
+  const std::vector<SmoothingScan>& scans = recorder.scans();    // their poses: the filter's
+  const std::vector<MapLandmark> map = pipeline.mapLandmarks();  // the result's first landmarks
   if (!r.ok) {
     log << "warning: --smooth: " << r.error << "; no smoothed outputs\n";
     return {{"ok", false}, {"error", r.error}};
@@ -493,7 +453,7 @@ nlohmann::json writeSmoothed(const std::string& dir, const SlamPipeline& pipelin
                       {"odometry_cost_per_residual", r.odometry_cost_per_residual},
                       {"observations", r.observations},
                       {"dropped_observations", r.dropped_observations},
-                      {"removed_landmarks", start.size() - final_landmarks},
+                      {"removed_landmarks", r.landmarks.size() - recorder.finalLandmarks()},
                       {"largest_landmark_move_m", moved},
                       {"seconds", r.seconds}};
   if (!gps.empty()) {
@@ -511,7 +471,7 @@ nlohmann::json writeSmoothed(const std::string& dir, const SlamPipeline& pipelin
     for (const auto& [t, p] : truth) reference.push_back({t, p.head<2>()});
     for (std::size_t i = 0; i < r.poses.size(); ++i) {
       smoothed_base.push_back({scans[i].stamp, r.poses[i].head<2>()});
-      filter_base.push_back({scans[i].stamp, poses[i].pose.head<2>()});
+      filter_base.push_back({scans[i].stamp, scans[i].pose.head<2>()});
     }
     const TrajectoryError es = compareTrajectories(smoothed_base, reference);
     const TrajectoryError ef = compareTrajectories(filter_base, reference);
@@ -618,8 +578,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   laser_track.reserve(num_scans);
   // The sensor track as estimated at each scan, before a relocalisation re-derived the lost ones.
   std::vector<StampedPoint> online_track;
-  std::vector<SmoothingScan> smoothing;                     // --smooth: one per trajectory row
-  std::unordered_map<LandmarkId, Eigen::Vector2d> created;  // --smooth: first placement by id
+  SmoothingRecorder recorder;  // --smooth
   online_track.reserve(num_scans);
   // Output rows are kept in memory and written after the loop, so that the wall time measures
   // the SLAM processing alone.
@@ -701,35 +660,15 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
                      filter.correctionCovariance().diagonal().cwiseSqrt()});
     laser_track.push_back({r.stamp, pipeline.observationModel().sensorPose(x).head<2>()});
     online_track.push_back(laser_track.back());
-    if (o.smooth) {
-      smoothing.push_back(smoothingScan(r, P));
-      // Where each new landmark was first placed: the smoother's start for one removed later.
-      for (std::size_t i = 0; i < r.observations.size() && i < r.association.decision.size(); ++i)
-        if (r.association.decision[i] == Decision::kNew)
-          created.emplace(
-              r.association.landmark[i],
-              pipeline.observationModel().inverse(x, r.observations[i].z, r.observations[i].kind));
-    }
+    if (o.smooth) recorder.add(r, pipeline);  // applies r's lost path to its own scans
     // Relocalised: the rows of the scans processed while lost, and of those tracked before it
     // that the fix contradicts, take their re-derived poses.
-    std::size_t first_rederived = poses.size();
     applyLostPath(
         r.lost_path, poses.size() - 1, [&poses](std::size_t i) { return poses[i].stamp; },
         [&](std::size_t i, const Eigen::Vector3d& p) {
           poses[i].pose = p;
           laser_track[i].position = pipeline.observationModel().sensorPose(p).head<2>();
-          first_rederived = std::min(first_rederived, i);
-          // Paired at a pose the fix contradicts (lost scans pair nothing): not evidence.
-          if (o.smooth) smoothing[i].observations.clear();
         });
-    if (o.smooth && r.relocalised) {
-      // The kidnap came just before the first re-derived scan (or this one): a real one (the
-      // vehicle carried off) makes the odometry into that scan wrong, so the smoother does not
-      // use it; the scan is tied to the rest by the odometry after it and the map.
-      SmoothingScan& s = smoothing[std::min(first_rederived, poses.size() - 1)];
-      s.linked = false;
-      s.pose_covariance = kUninformative * Eigen::Matrix3d::Identity();
-    }
     Eigen::Vector3d true_pose;
     const bool have_pose = score && truePoseAt(bag.ground_truth, r.stamp, &true_pose);
     std::vector<LandmarkId> scan_truth;
@@ -1132,8 +1071,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
       1e-6 * std::accumulate(relocalisation_us.begin(), relocalisation_us.end(), 0.0);
   j["relocalisation_events"] = relocalisation_events;
   if (o.smooth)
-    j["smoothing"] = writeSmoothed(o.out_dir, pipeline, std::move(smoothing), poses, created,
-                                   bag.gps, bag.ground_truth, log);
+    j["smoothing"] = writeSmoothed(o.out_dir, pipeline, recorder, bag.gps, bag.ground_truth, log);
   if (score) {
     const RunMetrics m = scorer->metrics(&pipeline);
     const double created_per_true =

@@ -72,7 +72,7 @@ bool information(Eigen::MatrixXd C, double min_variance, Eigen::MatrixXd* W) {
 // Adds block M = Jp^T W Jq at (rows p, cols q) to the lower triangle (p >= q as offsets).
 template <class A, class B, class C>
 void addLower(Triplets* t, int p, int q, const A& Jp, const B& W, const C& Jq) {
-  const Eigen::MatrixXd M = Jp.transpose() * W * Jq;
+  const auto M = (Jp.transpose() * W * Jq).eval();  // fixed-size: no allocation per term
   for (int r = 0; r < M.rows(); ++r)
     for (int c = 0; c < M.cols(); ++c)
       if (p + r >= q + c) t->emplace_back(p + r, q + c, M(r, c));

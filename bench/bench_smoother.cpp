@@ -57,7 +57,7 @@ void smooth(benchmark::State& state, const std::string& world, bool covariances)
   if (!r.ok) state.SkipWithError(r.error.c_str());
   state.counters["poses"] = static_cast<double>(r.poses.size());
   state.counters["landmarks"] = static_cast<double>(r.landmarks.size());
-  state.counters["final_map"] = static_cast<double>(run.recorder.finalLandmarks());
+  state.counters["final_map"] = static_cast<double>(run.pipeline->mapLandmarks().size());
   state.counters["observations"] = static_cast<double>(r.observations);
   state.counters["iterations"] = r.iterations;
 }

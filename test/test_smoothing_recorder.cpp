@@ -51,7 +51,6 @@ TEST(SmoothingRecorder, SmoothsARunWithItsRemovedLandmarks) {
   // Every landmark the run made, the final map's first and in its order.
   const std::vector<MapLandmark> map = pipeline.mapLandmarks();
   ASSERT_EQ(r.landmarks.size(), created.size());
-  ASSERT_EQ(recorder.finalLandmarks(), map.size());
   for (std::size_t k = 0; k < r.landmarks.size(); ++k) {
     if (k < map.size()) {
       EXPECT_EQ(r.landmarks[k].id, map[k].id);

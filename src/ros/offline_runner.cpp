@@ -453,7 +453,7 @@ nlohmann::json writeSmoothed(const std::string& dir, const SlamPipeline& pipelin
                       {"odometry_cost_per_residual", r.odometry_cost_per_residual},
                       {"observations", r.observations},
                       {"dropped_observations", r.dropped_observations},
-                      {"removed_landmarks", r.landmarks.size() - recorder.finalLandmarks()},
+                      {"removed_landmarks", r.landmarks.size() - map.size()},
                       {"largest_landmark_move_m", moved},
                       {"seconds", r.seconds}};
   if (!gps.empty()) {

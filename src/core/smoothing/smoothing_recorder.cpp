@@ -50,13 +50,13 @@ SmoothingResult SmoothingRecorder::smooth(const SlamPipeline& pipeline,
     start.push_back({l.id, l.position});
     in_map.insert(l.id);
   }
-  final_landmarks_ = start.size();
+  const std::size_t final_landmarks = start.size();
   for (const auto& [id, p] : created_)
     if (in_map.count(id) == 0) start.push_back({id, p});
   // In id order, so that the result does not depend on the hash map's order.
-  std::sort(start.begin() + final_landmarks_, start.end(),
+  std::sort(start.begin() + final_landmarks, start.end(),
             [](const SmoothingLandmark& a, const SmoothingLandmark& b) { return a.id < b.id; });
-  const int wanted = static_cast<int>(final_landmarks_);
+  const int wanted = static_cast<int>(final_landmarks);
   if (params.landmark_covariances < 0 || params.landmark_covariances > wanted)
     params.landmark_covariances = wanted;
   return smoothRun(scans_, start, pipeline.observationModel(), params);

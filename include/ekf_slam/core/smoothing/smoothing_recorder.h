@@ -26,12 +26,10 @@ class SmoothingRecorder {
   const std::vector<SmoothingScan>& scans() const { return scans_; }
 
   /// Smooths the run. Unknowns: every scan pose and every landmark the run created, the
-  /// pipeline's final map first (in its order), then the removed ones by id; marginal covariances
-  /// for the final map's only (unless params asks for fewer).
+  /// pipeline's final map first (its mapLandmarks(), in that order: the result's first
+  /// landmarks), then the removed ones by id; marginal covariances for the final map's only
+  /// (unless params asks for fewer).
   SmoothingResult smooth(const SlamPipeline& pipeline, SmootherParams params = {}) const;
-
-  /// The number of landmarks the last smooth() took from the final map (the first of its result).
-  std::size_t finalLandmarks() const { return final_landmarks_; }
 
   /// The prior variance of a scan the smoother takes no odometry into: keeps the system solvable,
   /// far too weak to pull the pose [m^2, rad^2].
@@ -40,7 +38,6 @@ class SmoothingRecorder {
  private:
   std::vector<SmoothingScan> scans_;
   std::unordered_map<LandmarkId, Eigen::Vector2d> created_;  // first placement by id
-  mutable std::size_t final_landmarks_ = 0;
 };
 
 }  // namespace ekf_slam

@@ -578,8 +578,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   laser_track.reserve(num_scans);
   // The sensor track as estimated at each scan, before a relocalisation re-derived the lost ones.
   std::vector<StampedPoint> online_track;
-  SmoothingRecorder recorder;  // --smooth
   online_track.reserve(num_scans);
+  SmoothingRecorder recorder;  // --smooth: what the batch smoother needs, scan by scan
   // Output rows are kept in memory and written after the loop, so that the wall time measures
   // the SLAM processing alone.
   std::vector<PoseRow> poses;

@@ -51,6 +51,44 @@ TEST(WorldParameters, WholeMapWorldsGetACoveringRange) {
   EXPECT_NO_THROW(d.configure(MapParameterSource(djnn)));
 }
 
+// DJNN's landmark_density means "unmapped landmarks per m^2 where the sensor looks": a corridor
+// the camera sweeps holds its markers at a density far above the world's box's. A room seen by a
+// camera that looks through its walls counts only the room's floor.
+TEST(WorldParameters, LandmarkDensityIsPerGroundTheSensorCovers) {
+  sim::World w = sim::makeWorld("fiducials");
+  w.area_min = {-1.0, -10.0};
+  w.area_max = {25.0, 10.0};
+  w.landmarks.clear();
+  for (double x = 2.0; x <= 18.0 + 1e-9; x += 0.5) {
+    w.landmarks.emplace_back(x, 0.5);
+    w.landmarks.emplace_back(x, -0.5);
+  }
+  w.start_pose = Eigen::Vector3d::Zero();
+  w.waypoints = {{20.0, 0.0}};
+  w.sensor.polygon = {{0.5, -1.0}, {2.5, -1.0}, {2.5, 1.0}, {0.5, 1.0}};
+  const double density = sim::coveredLandmarkDensity(w);
+  // The band 2 m wide from x = 0.5 to about 20 + 2.5 m.
+  const double expected = double(w.landmarks.size()) / (2.0 * 22.0);
+  EXPECT_NEAR(density, expected, 0.1 * expected);
+  const Eigen::Vector2d box = w.area_max - w.area_min;
+  EXPECT_GT(density, 5.0 * double(w.landmarks.size()) / (box.x() * box.y()));
+  EXPECT_NEAR(std::stod(sim::associatorParametersFor(w, "DJNN").at("landmark_density")), density,
+              1e-9);
+
+  const sim::World arena = sim::makeWorld("arena");
+  EXPECT_NEAR(sim::coveredLandmarkDensity(arena), 15.0 / (6.0 * 8.0), 0.03);
+}
+
+// The worlds whose heading the standard EKF is over-confident about run the FEJ-EKF; the papers'
+// worlds keep the papers' filter.
+TEST(WorldParameters, FiducialsRunTheFirstEstimateEkf) {
+  EXPECT_EQ(sim::pipelineConfigFor(sim::makeWorld("fiducials")).jacobians, "first_estimate");
+  EXPECT_EQ(sim::pipelineConfigFor(sim::makeWorld("fiducials_lattice")).jacobians,
+            "first_estimate");
+  for (const char* name : {"arena", "djnn_weak", "hybrid", "rrw_noise_1"})
+    EXPECT_EQ(sim::pipelineConfigFor(sim::makeWorld(name)).jacobians, "standard") << name;
+}
+
 TEST(RunScorer, RejectsMisalignedTruth) {
   RunScorer scorer;
   ScanReport report;

@@ -17,6 +17,7 @@
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/landmark_index.h"
 #include "ekf_slam/core/simulation/simulator.h"
+#include "ekf_slam/core/simulation/simulator_sensor_worlds.h"
 
 namespace ekf_slam {
 namespace sim {
@@ -77,7 +78,9 @@ bool sameRecording(const Recording& a, const Recording& b) {
 
 TEST(Worlds, EveryNameBuildsAndValidates) {
   const std::vector<std::string> names = worldNames();
-  EXPECT_EQ(names.size(), 9u + 10u + 10u + 10u);  // 9: + beacons, arena, fiducials, city
+  // 10: tiny, djnn_weak, djnn_strong, hybrid, aekf, beacons, arena, fiducials, fiducials_lattice,
+  // city.
+  EXPECT_EQ(names.size(), 10u + 10u + 10u + 10u);
   for (const std::string& n : names) {
     SCOPED_TRACE(n);
     const World w = makeWorld(n);
@@ -88,6 +91,29 @@ TEST(Worlds, EveryNameBuildsAndValidates) {
                   (p.array() <= w.area_max.array()).all());
     }
   }
+}
+
+// `fiducials`' markers are laid by hand: off the corridors' exact pattern (every 0.4 m, 0.4 m
+// left and right of the centre lines), which `fiducials_lattice` keeps, by the placement error,
+// the same floor at every call.
+TEST(Worlds, FiducialMarkersAreLaidByHandAroundTheLattice) {
+  const World lattice = makeWorld("fiducials_lattice");
+  const World laid = makeWorld("fiducials");
+  EXPECT_EQ(laid.landmarks, makeWorld("fiducials").landmarks);
+  EXPECT_NEAR(double(laid.landmarks.size()), double(lattice.landmarks.size()), 5.0);
+  for (const Eigen::Vector2d& p : lattice.landmarks) {
+    const Eigen::Vector2d q = p / 0.4;
+    EXPECT_LT((q - q.array().round().matrix()).norm(), 1e-9) << p.transpose();
+  }
+  // Offset of each laid marker from the nearest lattice point (placement errors are far below
+  // half the 0.4 m step).
+  double sum2 = 0.0;
+  for (const Eigen::Vector2d& p : laid.landmarks) {
+    const Eigen::Vector2d e = p - 0.4 * (p / 0.4).array().round().matrix();
+    sum2 += e.squaredNorm();
+  }
+  const double sigma = std::sqrt(sum2 / (2.0 * double(laid.landmarks.size())));
+  EXPECT_NEAR(sigma, kMarkerPlacementSigma, 0.1 * kMarkerPlacementSigma);
 }
 
 TEST(Worlds, UnknownNameListsTheAvailableOnes) {

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/coverage_grid.h"
 #include "ekf_slam/core/evaluation/trajectory_metrics.h"
 #include "ekf_slam/core/feature_extraction/beacon_extractor.h"
 #include "ekf_slam/core/pipeline_config.h"
@@ -82,6 +83,7 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
     p["pose_delta_alpha_rot_per_rot"] =
         text(n.sigma_speed / v + std::tan(world.vehicle.max_steer) * n.sigma_steer);
   }
+  if (world.first_estimate_jacobians) p["jacobians"] = "first_estimate";
   // Second-order observation terms where they matter (docs/consistency.md): a range-bearing
   // sensor whose second-order range spread at its reach, r sigma_b^2 / sqrt(2), exceeds half its
   // range noise (the rrw worlds: 425 m, 3 deg, 0.1 m), i.e. far landmarks known mostly across.
@@ -130,6 +132,30 @@ static double leastSpacing(const std::vector<Eigen::Vector2d>& landmarks) {
   return std::sqrt(best);
 }
 
+double coveredLandmarkDensity(const World& world, double cell) {
+  SensorModel region;
+  region.min_range = world.sensor.min_range;
+  region.max_range = world.sensor.max_range;
+  region.field_of_view = std::min(world.sensor.field_of_view, 2.0 * M_PI);
+  region.polygon = world.sensor.polygon;
+  CoverageGrid grid(cell);
+  Simulation simulation(world, 1);
+  for (auto e = simulation.next(); e != Simulation::Event::kEnd; e = simulation.next()) {
+    if (e == Simulation::Event::kObservations)
+      grid.addView(region, composePose(simulation.observations().true_pose, world.sensor.offset));
+  }
+  // Only the ground inside the world's area: a camera looking out of a room sees no landmark
+  // beyond its walls.
+  std::size_t covered = 0, seen = 0;
+  for (double x = world.area_min.x() + 0.5 * cell; x < world.area_max.x(); x += cell) {
+    for (double y = world.area_min.y() + 0.5 * cell; y < world.area_max.y(); y += cell)
+      covered += grid.count({x, y}) > 0;
+  }
+  for (const Eigen::Vector2d& l : world.landmarks) seen += grid.count(l) > 0;
+  return covered == 0 ? 0.0
+                      : static_cast<double>(seen) / (static_cast<double>(covered) * cell * cell);
+}
+
 std::map<std::string, std::string> associatorParametersFor(const World& world,
                                                            const std::string& short_name) {
   if (short_name == "FGCBB" || short_name == "GCBB")
@@ -158,14 +184,13 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
     // A camera that misses landmarks keeps many of them tentative while the pose is corrected:
     // the features follow the corrections and the static test allows for the heading error
     // (docs/djnn.md, "Tentative features and the pose error"). Pairings are weighed jointly against
-    // a shifted scan and against unmapped landmarks, at the world's mean landmark density.
+    // a shifted scan and against unmapped landmarks at their density where the sensor looks.
     p["tentative_follow_pose"] = "true";
     p["static_heading"] = "true";
     p["shift_test"] = "true";
-    const Eigen::Vector2d extent = world.area_max - world.area_min;
-    if (extent.x() > 0.0 && extent.y() > 0.0 && !world.landmarks.empty()) {
-      p["landmark_density"] = text(double(world.landmarks.size()) / (extent.x() * extent.y()));
-    }
+    // "Where the sensor looks": per m^2 of the ground the route's views cover, not of the
+    // world's bounding box (corridors hold their markers in a third of the grid's area).
+    if (!world.landmarks.empty()) p["landmark_density"] = text(coveredLandmarkDensity(world));
     if (world.movers.count == 0) {
       // Without movers, a few static sightings tell a landmark from clutter (the 7-sighting
       // admission is the static test's span for walking-pace movers), and loop closures get the

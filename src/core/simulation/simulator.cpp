@@ -309,7 +309,8 @@ const std::vector<std::pair<std::string, Builder>>& registry() {
     r.emplace_back("aekf", aekfWorld);
     r.emplace_back("beacons", [] { return beaconCarPark().world; });  // laser: laserWorld()
     r.emplace_back("arena", arenaWorld);                              // simulator_sensor_worlds.cpp
-    r.emplace_back("fiducials", fiducialsWorld);
+    r.emplace_back("fiducials", [] { return fiducialsWorld(); });
+    r.emplace_back("fiducials_lattice", [] { return fiducialsWorld(0.0); });
     r.emplace_back("city", cityWorld);  // simulation/city_world.cpp
     for (int k = 1; k <= 10; ++k)
       r.emplace_back("rrw_noise_" + std::to_string(k), [k] { return rrwNoise(k); });

@@ -56,6 +56,14 @@ PipelineConfig pipelineConfigFor(const World& world);
 std::map<std::string, std::string> associatorParametersFor(const World& world,
                                                            const std::string& short_name);
 
+/// Landmarks per m^2 of the ground the sensor's region covers along the world's route: the
+/// landmarks inside the cells (side `cell` [m]) whose centre one of the true sensor poses of a run
+/// (seed 1) saw, over the area of those cells inside the world's area (area_min..area_max). This
+/// is what DJNN's `landmark_density` means ("unmapped landmarks per m^2 where the sensor looks"):
+/// a corridor world holds its markers in a fraction of its bounding box. 0 for a world without
+/// views.
+double coveredLandmarkDensity(const World& world, double cell = 0.25);
+
 /// The feature extractor a laser world's scans need (sim::laserWorld): its plugin's short name
 /// and parameters (docs/feature_extraction.md); an empty name for the point-observation worlds.
 struct ExtractorSetup {

@@ -163,6 +163,10 @@ struct World {
   /// The filter should use the odometry poses' increments (pipeline odometry_mode pose_delta)
   /// rather than the twist.
   bool pose_delta_odometry = false;
+  /// The filter should run the FEJ-EKF (pipeline `jacobians: first_estimate`): a world whose
+  /// heading the standard EKF is over-confident about with the true associations
+  /// (docs/consistency.md).
+  bool first_estimate_jacobians = false;
   std::uint64_t default_seed = 1;  ///< the paper's seed where it gives one
 
   /// Throws std::invalid_argument naming the first bad field.
@@ -174,7 +178,7 @@ struct World {
 };
 
 /// Names accepted by makeWorld(): tiny, djnn_weak, djnn_strong, hybrid, aekf, beacons (scans:
-/// sim::laserWorld), rrw_noise_1..10,
+/// sim::laserWorld), arena, fiducials, fiducials_lattice, city, rrw_noise_1..10,
 /// rrw_kidnap_1..10, rrw_occlusion_2, 4, ..., 20.
 std::vector<std::string> worldNames();
 /// World names matching `patterns`, in registry order without repeats: an exact name, or a

@@ -191,6 +191,35 @@ TEST(DJNNJoint, LandmarkSpacingLeavesOnlyClutterNearALandmark) {
   }
 }
 
+// Two landmarks are never closer than landmark_spacing. A feature seen scan after scan 0.25 m from
+// a map landmark while the pose is known to 2 cm (far outside the landmark's gate, as after a
+// large correction that left the pose over-confident) is that landmark seen off, or clutter: it
+// stays tentative rather than becoming a duplicate. One 1.5 m away is admitted either way.
+TEST(DJNNJoint, NoLandmarkIsAdmittedWithinTheSpacingOfAnother) {
+  for (const bool spacing : {false, true}) {
+    Scene s;
+    s.pose_cov = assoc_test::poseCov(0.02, 0.02, 0.002);
+    s.R = assoc_test::diag2(0.03, deg2rad(1));
+    const int j = s.addLandmark({3.0, 0.5}, assoc_test::diag2(0.02, 0.02));
+    s.build();
+    s.observePoint({3.0, 0.75});
+    s.observePoint({3.0, -1.0});
+    ASSERT_GT(s.context(0).individual(0, j).mahalanobis, 16.0);
+    std::map<std::string, std::string> p = {{"admit_evidence", "3"}, {"clutter_density", "0.02"}};
+    if (spacing) p["landmark_spacing"] = "0.5";
+    DJNN d = makeDjnn(p);
+    bool near_admitted = false, far_admitted = false;
+    for (int k = 0; k < 10; ++k) {
+      const AssociationResult r = d.associate(s.context(0.2 * k));
+      near_admitted = near_admitted || r.decision[0] == Decision::kNew;
+      far_admitted = far_admitted || r.decision[1] == Decision::kNew;
+    }
+    EXPECT_EQ(near_admitted, !spacing);
+    EXPECT_TRUE(far_admitted);
+    EXPECT_EQ(d.stats().spacing_refused > 0, spacing);
+  }
+}
+
 // The pose is off by one spacing: NN pairs the row one marker along. A marker off the row (the
 // corridor's corner) is seen too; the shifted hypothesis must leave it out of the map (or pair it
 // 0.8 m off given the row), so the true assignment is far likelier and is taken.

@@ -1225,7 +1225,16 @@ void DJNN::handleUnpaired(const AssociationContext& ctx, AssociationResult* resu
     // T >= admit_evidence already implies as many sightings since the last restart.
     const bool enough_sightings =
         !p_.static_test || tentative_[slot].sightings >= p_.admit_evidence;
-    if (force_new_[i] == kHeld) {
+    // Two landmarks are never closer than landmark_spacing: a source that certainly lies that
+    // close to a map landmark is that landmark seen off (a pose made over-confident by a large
+    // correction) or clutter, and admitting it would make a duplicate. It stays tentative.
+    const bool admitting = force_new_[i] == kAdmit ||
+                           (force_new_[i] != kHeld && t >= p_.admit_evidence - kEvidenceEps &&
+                            enough_sightings && longEnough(slot));
+    if (admitting && withinSpacing(ctx, i, cand_)) {
+      result->decision[i] = Decision::kTentative;
+      ++stats_.spacing_refused;
+    } else if (force_new_[i] == kHeld) {
       result->decision[i] = Decision::kTentative;
     } else if (force_new_[i] == kAdmit) {
       result->decision[i] = Decision::kNew;  // on a remembered feature (joint decision)

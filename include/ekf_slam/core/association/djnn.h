@@ -57,9 +57,11 @@ class DJNN : public DataAssociation {
     std::uint64_t joint_incomplete = 0;     ///< joint searches over budget (scan held)
     std::uint64_t remembered = 0;           ///< tentative features remembered at their timeout
     std::uint64_t remembered_admitted = 0;  ///< observations admitted on a remembered feature
-    std::uint64_t window_scans = 0;         ///< joint decisions weighed with held scans
-    std::uint64_t held_streaks = 0;         ///< runs of held joint scans that ended
-    std::uint64_t held_streak_scans = 0;    ///< scans in those runs
+    /// Admissions refused: the source lay within landmark_spacing of a map landmark.
+    std::uint64_t spacing_refused = 0;
+    std::uint64_t window_scans = 0;       ///< joint decisions weighed with held scans
+    std::uint64_t held_streaks = 0;       ///< runs of held joint scans that ended
+    std::uint64_t held_streak_scans = 0;  ///< scans in those runs
   };
 
   /// Parameters (names as read in configure(); defaults in docs/djnn.md).
@@ -314,6 +316,11 @@ class DJNN : public DataAssociation {
   void dropTentative(int slot, bool stale = false);
   /// -2 ln of "not in the map" for observation `obs` of the joint decision, given its gated
   /// candidates (landmark_spacing).
+  /// Whether the source of `obs` lies, with probability individual_probability, within
+  /// landmark_spacing of one of `landmarks` (state-order indices): that landmark or clutter,
+  /// never another landmark. False with landmark_spacing 0 (djnn_spacing.cpp).
+  bool withinSpacing(const AssociationContext& ctx, int obs,
+                     const std::vector<int>& landmarks) const;
   double unmappedCostOf(const AssociationContext& ctx, int obs,
                         const std::vector<int>& gated) const;
   /// landmark_density times the chance that a landmark at the source of observation `obs` is

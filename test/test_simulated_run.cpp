@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <unordered_map>
@@ -77,6 +78,16 @@ TEST(WorldParameters, LandmarkDensityIsPerGroundTheSensorCovers) {
 
   const sim::World arena = sim::makeWorld("arena");
   EXPECT_NEAR(sim::coveredLandmarkDensity(arena), 15.0 / (6.0 * 8.0), 0.03);
+
+  // A sensor without a range limit sees the whole area: the density is the area's (and the
+  // cost per view stays bounded).
+  sim::World tiny = sim::makeWorld("tiny");
+  tiny.sensor.max_range = std::numeric_limits<double>::infinity();
+  tiny.sensor.field_of_view = 2.0 * M_PI;
+  tiny.max_duration = 2.0;
+  const Eigen::Vector2d extent = tiny.area_max - tiny.area_min;
+  EXPECT_NEAR(sim::coveredLandmarkDensity(tiny), double(tiny.landmarks.size()) / extent.prod(),
+              0.05 * double(tiny.landmarks.size()) / extent.prod());
 }
 
 // The worlds whose heading the standard EKF is over-confident about run the FEJ-EKF; the papers'

@@ -135,9 +135,12 @@ static double leastSpacing(const std::vector<Eigen::Vector2d>& landmarks) {
 double coveredLandmarkDensity(const World& world, double cell) {
   SensorModel region;
   region.min_range = world.sensor.min_range;
-  region.max_range = world.sensor.max_range;
+  region.max_range = coveringRange(world);  // finite: the grid visits the region's bounding box
   region.field_of_view = std::min(world.sensor.field_of_view, 2.0 * M_PI);
   region.polygon = world.sensor.polygon;
+  // A view visits the cells of its bounding box: at most about 200 x 200 of them, however far the
+  // sensor reaches.
+  cell = std::max(cell, region.max_range / 100.0);
   CoverageGrid grid(cell);
   Simulation simulation(world, 1);
   for (auto e = simulation.next(); e != Simulation::Event::kEnd; e = simulation.next()) {

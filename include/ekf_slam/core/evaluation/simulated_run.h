@@ -61,7 +61,7 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
 /// (seed 1) saw, over the area of those cells inside the world's area (area_min..area_max). This
 /// is what DJNN's `landmark_density` means ("unmapped landmarks per m^2 where the sensor looks"):
 /// a corridor world holds its markers in a fraction of its bounding box. 0 for a world without
-/// views.
+/// views. The cell is at least the sensor's covering range / 100 (a bounded cost per view).
 double coveredLandmarkDensity(const World& world, double cell = 0.25);
 
 /// The feature extractor a laser world's scans need (sim::laserWorld): its plugin's short name

@@ -7,7 +7,7 @@
 add_library(ekf_slam_offline_runner src/ros/offline_runner.cpp src/ros/checked_bag_reader.cpp)
 target_include_directories(ekf_slam_offline_runner PUBLIC include)
 target_link_libraries(ekf_slam_offline_runner
-  PUBLIC ekf_slam_conversions ekf_slam_ros ekf_slam_tools ekf_slam_node ekf_slam_evaluation ${catkin_LIBRARIES}
+  PUBLIC ekf_slam_conversions ekf_slam_ros ekf_slam_tools ekf_slam_evaluation ${catkin_LIBRARIES}
   PRIVATE nlohmann_json::nlohmann_json)
 add_dependencies(ekf_slam_offline_runner ${PROJECT_NAME}_generate_messages_cpp
                  ekf_slam_association_plugins)

@@ -39,6 +39,8 @@ if(CATKIN_ENABLE_TESTING)
   # launch/simulation.launch (node + rosbag play) on the tiny world's bag, started by the test
   # itself with roslaunch once it has written the bag and its YAML.
   add_rostest_gtest(test_simulation_launch test/simulation.test test/test_simulation_launch.cpp)
-  target_link_libraries(test_simulation_launch ekf_slam_simulation_bag)
-  add_dependencies(test_simulation_launch ekf_slam_node_main ekf_slam_association_plugins)
+  target_include_directories(test_simulation_launch PRIVATE test)
+  target_link_libraries(test_simulation_launch ekf_slam_simulation_bag ekf_slam_offline_runner)
+  add_dependencies(test_simulation_launch ekf_slam_node_main ekf_slam_association_plugins
+                   ekf_slam_extraction_plugins)
 endif()

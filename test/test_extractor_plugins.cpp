@@ -6,12 +6,13 @@
 #include <map>
 #include <string>
 
+#include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/core/feature_extraction/beacon_extractor.h"
 #include "ekf_slam/core/feature_extraction/tree_feature_extractor.h"
-#include "ekf_slam/ros/extractor_loader.h"
+#include "ekf_slam/ros/plugin_loader.h"
+#include "ekf_slam/tools/yaml_configuration.h"
 
 using namespace ekf_slam;
-using Params = std::map<std::string, std::string>;
 
 TEST(ExtractorPlugins, DeclaredNames) {
   const ExtractorLoader loader;
@@ -34,13 +35,14 @@ TEST(ExtractorPlugins, MisspeltNameListsTheAvailableOnes) {
   }
 }
 
+// Through the pipeline builder, as every entry point configures its extractor.
 TEST(ExtractorPlugins, TreeExtractorFallsBackOnTopLevelNames) {
-  const ExtractorLoader loader;
-  const MapParameterSource top(
-      Params{{"extractor_max_range", "40"}, {"extractor_range_jump", "2"}});
-  const MapParameterSource section(Params{{"range_jump", "1.2"}});
-  const auto e = createFeatureExtractor(loader, "TreeExtractor", section, top);
-  const auto* tree = dynamic_cast<const TreeFeatureExtractor*>(e.get());
+  YamlConfiguration c;
+  c.setOverride("", "extractor_max_range", "40");
+  c.setOverride("", "extractor_range_jump", "2");
+  c.setOverride("TreeExtractor", "range_jump", "1.2");
+  const PipelineParts parts = buildPipeline(c, PluginlibFactory());
+  const auto* tree = dynamic_cast<const TreeFeatureExtractor*>(parts.extractor.get());
   ASSERT_NE(tree, nullptr);
   EXPECT_DOUBLE_EQ(tree->detector().params().max_range, 40.0);  // top level
   EXPECT_DOUBLE_EQ(tree->detector().params().range_jump, 1.2);  // the section wins
@@ -48,17 +50,19 @@ TEST(ExtractorPlugins, TreeExtractorFallsBackOnTopLevelNames) {
 }
 
 TEST(ExtractorPlugins, BeaconExtractorReadsItsSectionOnly) {
-  const ExtractorLoader loader;
-  const MapParameterSource top(Params{{"extractor_max_range", "40"}});
-  const MapParameterSource section(Params{{"beacon_radius", "0.05"}, {"max_range", "20"}});
-  const auto e = createFeatureExtractor(loader, "ekf_slam/BeaconExtractor", section, top);
-  const auto* beacon = dynamic_cast<const BeaconExtractor*>(e.get());
+  YamlConfiguration c;
+  c.setOverride("", "extractor", "ekf_slam/BeaconExtractor");
+  c.setOverride("", "extractor_max_range", "40");
+  c.setOverride("BeaconExtractor", "beacon_radius", "0.05");
+  c.setOverride("BeaconExtractor", "max_range", "20");
+  const PipelineParts parts = buildPipeline(c, PluginlibFactory());
+  const auto* beacon = dynamic_cast<const BeaconExtractor*>(parts.extractor.get());
   ASSERT_NE(beacon, nullptr);
-  EXPECT_TRUE(e->needsIntensities());
+  EXPECT_TRUE(parts.extractor->needsIntensities());
   EXPECT_DOUBLE_EQ(beacon->params().beacon_radius, 0.05);
   EXPECT_DOUBLE_EQ(beacon->params().max_range, 20.0);
-  const MapParameterSource bad(Params{{"max_gap", "-1"}}, "BeaconExtractor/");
-  EXPECT_THROW(createFeatureExtractor(loader, "BeaconExtractor", bad, top), ParameterError);
+  c.setOverride("BeaconExtractor", "max_gap", "-1");
+  EXPECT_THROW(buildPipeline(c, PluginlibFactory()), ParameterError);
 }
 
 int main(int argc, char** argv) {

@@ -32,6 +32,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include "ekf_slam/AssociationStats.h"
 #include "ekf_slam/LandmarkArray.h"
@@ -587,6 +588,32 @@ TEST(UnknownParameter, ExitsNonZeroNamingTheNearestName) {
   EXPECT_NE(WEXITSTATUS(status), 0);
   const std::string text = readFile(log);
   EXPECT_NE(text.find("sigma_rnage (did you mean sigma_range?)"), std::string::npos) << text;
+  fs::remove(log);
+}
+
+// ... and so does one in any plugin's section (~DJNN/, ~TreeExtractor/, ~FGCBB/), the same error
+// as every other entry point gives (app/pipeline_builder.h, test_entry_points.cpp).
+TEST(UnknownParameter, InAnyPluginSectionExitsNonZeroNamingIt) {
+  const std::string log = (fs::temp_directory_path() / "ekf_slam_test_node_section.log").string();
+  const std::pair<const char*, const char*> cases[] = {
+      {"_DJNN/individual_probabilty:=0.9",
+       "/ekf_slam_section/DJNN/individual_probabilty (did you mean individual_probability?)"},
+      {"_TreeExtractor/range_jmp:=1.0",
+       "/ekf_slam_section/TreeExtractor/range_jmp (did you mean range_jump?)"},
+      {"_relocaliser:=ekf_slam/FGCBB _FGCBB/sensor_rnage:=20",
+       "/ekf_slam_section/FGCBB/sensor_rnage (did you mean sensor_range?)"},
+  };
+  for (const auto& [args, expected] : cases) {
+    const std::string cmd = std::string("'") + EKF_SLAM_NODE_BIN + "' __name:=ekf_slam_section " +
+                            args + " > '" + log + "' 2>&1";
+    const int status = std::system(cmd.c_str());
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_NE(WEXITSTATUS(status), 0) << args;
+    const std::string text = readFile(log);
+    EXPECT_NE(text.find(expected), std::string::npos) << args << ":\n" << text;
+    // The parameters stay on the server: clear them for the next case.
+    ros::param::del("/ekf_slam_section");
+  }
   fs::remove(log);
 }
 

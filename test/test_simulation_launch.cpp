@@ -1,7 +1,9 @@
 // rostest (test/simulation.test): launch/simulation.launch plays the tiny world's bag into the
 // ekf_slam node. The test writes the bag and its YAML, starts the launch file with roslaunch on
 // rostest's master (rviz off, 10x playback) and checks that the node processed every observation
-// set and published a map whose landmarks lie on the true ones.
+// set and published a map whose landmarks lie on the true ones; and that it is the offline
+// runner's run of the same bag and YAML: the same decision for every observation of every scan,
+// the same removals, the same final map to the last bit (issue 35).
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <signal.h>
@@ -13,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -22,7 +25,9 @@
 #include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/core/evaluation/simulated_run.h"
 #include "ekf_slam/core/simulation/simulator.h"
+#include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/simulation_bag.h"
+#include "offline_test_options.h"
 #include "ros_test_wait.h"
 #include "test_files.h"
 
@@ -100,11 +105,20 @@ TEST(SimulationLaunch, NodeMapsTheTinyWorld) {
   ekf_slam::AssociationStats last;
   int reports = 0;
   std::set<std::string> associators;
+  std::map<std::uint32_t, std::string> decisions;  // by scan, as associations.csv has them
   ros::Subscriber stats_sub = nh.subscribe<ekf_slam::AssociationStats>(
-      "/ekf_slam/associations", 1000, [&](const ekf_slam::AssociationStats::ConstPtr& m) {
+      "/ekf_slam/associations", 100000, [&](const ekf_slam::AssociationStats::ConstPtr& m) {
         ++reports;
         last = *m;
         associators.insert(m->associator);
+        static const char* kNames[] = {"paired", "new", "tentative", "rejected"};
+        std::string row;
+        for (std::size_t i = 0; i < m->decision.size(); ++i) {
+          row += std::to_string(i) + ' ' + kNames[m->decision[i]] + ' ' +
+                 std::to_string(m->landmark_id[i]) + ';';
+        }
+        for (const auto id : m->removed) row += "removed " + std::to_string(id) + ';';
+        if (!row.empty()) decisions[m->scan] = row;
       });
 
   const std::string launch_log = (tmp / "roslaunch.log").string();
@@ -126,6 +140,13 @@ TEST(SimulationLaunch, NodeMapsTheTinyWorld) {
     EXPECT_FALSE(ended) << "roslaunch ended early:\n" << readFile(launch_log);
   }
   const std::string launch_output = readFile(launch_log);
+  // The offline runner on the same bag and YAML.
+  const ekf_slam::OfflineOptions offline_options =
+      test_files::quietOfflineOptions(bag.bag_path, bag.params_path, (tmp / "offline").string());
+  std::ostringstream offline_log;
+  const ekf_slam::OfflineSummary offline = ekf_slam::runOffline(offline_options, offline_log);
+  const std::string offline_decisions = readFile(offline_options.out_dir + "/associations.csv");
+  const std::string offline_map = readFile(offline_options.out_dir + "/landmarks.csv");
   fs::remove_all(tmp);
   ASSERT_TRUE(processed_all) << reports << " reports, last scan " << last.scan << " of "
                              << bag.observation_sets << "; roslaunch output:\n"
@@ -153,6 +174,39 @@ TEST(SimulationLaunch, NodeMapsTheTinyWorld) {
     }
   }
   EXPECT_GE(found, 7) << "of " << world.landmarks.size() << " true landmarks mapped within 1 m";
+
+  // The node's run is the offline runner's.
+  EXPECT_EQ(offline.scans, bag.observation_sets);
+  std::map<std::uint32_t, std::string> from_file;
+  std::istringstream rows(offline_decisions);
+  std::string line;
+  std::getline(rows, line);  // header
+  while (std::getline(rows, line)) {
+    std::vector<std::string> f;
+    std::istringstream cells(line);
+    for (std::string cell; std::getline(cells, cell, ',');) f.push_back(cell);
+    from_file[static_cast<std::uint32_t>(std::stoul(f.at(0)))] +=
+        f.at(6) == "removed" ? "removed " + f.at(7) + ";"
+                             : f.at(2) + ' ' + f.at(6) + ' ' + f.at(7) + ';';
+  }
+  ASSERT_EQ(decisions.size(), from_file.size());
+  for (const auto& [scan, row] : from_file)
+    ASSERT_EQ(decisions[scan], row) << "first difference at scan " << scan;
+  std::istringstream landmarks(offline_map);
+  std::getline(landmarks, line);
+  std::size_t k = 0;
+  for (; std::getline(landmarks, line); ++k) {
+    ASSERT_LT(k, map.landmarks.size());
+    std::istringstream cells(line);
+    std::string id, x, y;
+    std::getline(cells, id, ',');
+    std::getline(cells, x, ',');
+    std::getline(cells, y, ',');
+    EXPECT_EQ(map.landmarks[k].id, std::stoll(id));
+    EXPECT_EQ(map.landmarks[k].x, std::strtod(x.c_str(), nullptr)) << "landmark " << id;
+    EXPECT_EQ(map.landmarks[k].y, std::strtod(y.c_str(), nullptr)) << "landmark " << id;
+  }
+  EXPECT_EQ(k, map.landmarks.size());
 }
 
 int main(int argc, char** argv) {

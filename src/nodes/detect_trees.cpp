@@ -16,11 +16,12 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 
+#include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/core/feature_extraction/tree_extractor.h"
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/extractor_loader.h"
-#include "ekf_slam/tools/scan_filter_yaml.h"
-#include "ekf_slam/tools/yaml_parameter_source.h"
+#include "ekf_slam/ros/plugin_loader.h"
+#include "ekf_slam/tools/yaml_configuration.h"
 
 namespace {
 
@@ -56,12 +57,13 @@ void usage(std::ostream& out) {
   out << "Usage: rosrun ekf_slam detect_trees --bag FILE.bag --out trees.csv [--topic /scan]\n"
          "       rosrun ekf_slam detect_trees --data DIR --out trees.csv\n"
          "       [--extractor NAME] [--params FILE.yaml]\n"
-         "Runs a feature extractor (default ekf_slam/TreeExtractor, ACFR's Victoria Park tree\n"
-         "detector) on every scan and writes scan,stamp,range,bearing,diameter (scan =\n"
-         "header.seq, stamp [s], bearing in the LaserScan convention [rad], range to the\n"
+         "Runs a feature extractor (default: the YAML's `extractor`, else\n"
+         "ekf_slam/TreeExtractor, ACFR's Victoria Park tree detector) on every scan and writes\n"
+         "scan,stamp,range,bearing,diameter (scan = header.seq, stamp [s], bearing in the\n"
+         "LaserScan convention [rad], range to the\n"
          "feature's centre and its descriptor, e.g. the trunk diameter [m]).\n"
-         "--params: the node's YAML (the extractor's section, scan_filter_chain; the box\n"
-         "filter's box is in the laser frame here).\n"
+         "--params: the node's YAML (every key is checked; the extractor's section and\n"
+         "scan_filter_chain are used; the box filter's box is in the laser frame here).\n"
          "--data reads victoria_park_ascii/LASER.txt under DIR instead of a bag (scan = index,\n"
          "stamp = data milliseconds / 1000, as in the converted bag). DIR may be \"default\"\n"
          "($VP_DATA or the shared data folder).\n";
@@ -98,24 +100,20 @@ Counts fromData(const Frontend& f, const std::string& dir, std::ostream& csv) {
   return c;
 }
 
-Frontend makeFrontend(const ekf_slam::ExtractorLoader& loader, const std::string& name,
-                      const std::string& params) {
-  using ekf_slam::YamlParameterSource;
-  const std::string lookup = ekf_slam::ExtractorLoader::lookupName(name);
-  const YamlParameterSource top =
-      params.empty() ? YamlParameterSource() : YamlParameterSource::fromFile(params);
-  const YamlParameterSource section =
-      params.empty() ? YamlParameterSource()
-                     : YamlParameterSource::fromFile(params, lookup.substr(lookup.rfind('/') + 1),
-                                                     YamlParameterSource::Scope::kSectionOnly);
-  return {ekf_slam::createFeatureExtractor(loader, lookup, section, top),
-          ekf_slam::ScanFilterChain::fromSpecs(ekf_slam::readScanFilterChainFile(params))};
+// The extractor and the scan filters from the YAML, checked as every entry point checks it
+// (app/pipeline_builder.h); --extractor replaces the file's `extractor`.
+Frontend makeFrontend(const std::string& extractor, const std::string& params) {
+  ekf_slam::YamlConfiguration configuration(params);
+  if (!extractor.empty()) configuration.setOverride("", "extractor", extractor);
+  const ekf_slam::PipelineParts parts =
+      ekf_slam::buildPipeline(configuration, ekf_slam::PluginlibFactory());
+  return {parts.extractor, parts.scan_filter};
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string bag, data, out, topic = "/scan", extractor = "ekf_slam/TreeExtractor", params;
+  std::string bag, data, out, topic = "/scan", extractor, params;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "-h" || arg == "--help") {
@@ -153,8 +151,7 @@ int main(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   Counts c;
   try {
-    const ekf_slam::ExtractorLoader loader;
-    const Frontend frontend = makeFrontend(loader, extractor, params);
+    const Frontend frontend = makeFrontend(extractor, params);
     ekf_slam::writeTreesCsvHeader(csv);
     c = bag.empty() ? fromData(frontend, data, csv) : fromBag(frontend, bag, topic, csv);
   } catch (const std::exception& e) {

@@ -11,16 +11,18 @@
 #include <stdexcept>
 #include <string>
 
+#include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/tools/association_problem.h"
-#include "ekf_slam/tools/yaml_parameter_source.h"
+#include "ekf_slam/tools/yaml_configuration.h"
 
 namespace {
 
 const char* kUsage =
     "usage: replay_association --problem FILE.json --associator NAME [--params FILE.yaml]\n"
     "  NAME: a plugin name such as ekf_slam/DJNN (or just DJNN)\n"
-    "  FILE.yaml: parameters, top-level and/or under a section named after the algorithm\n";
+    "  FILE.yaml: the node's parameter file: the associator's parameters in the section named\n"
+    "             after it (e.g. DJNN:), the pipeline's at the top level (checked, not used)\n";
 
 }  // namespace
 
@@ -49,18 +51,16 @@ int main(int argc, char** argv) {
 
   try {
     const auto problem = ekf_slam::readAssociationProblem(problem_file);
-    const std::string lookup = ekf_slam::AssociatorLoader::lookupName(associator);
-    const std::string section = lookup.substr(lookup.rfind('/') + 1);
-    auto params = params_file.empty()
-                      ? ekf_slam::YamlParameterSource()
-                      : ekf_slam::YamlParameterSource::fromFile(params_file, section);
-    // The problem's gate alphas apply unless the parameter file sets the same parameter.
-    for (const auto& [name, value] : ekf_slam::problemParameters(problem, lookup)) {
-      if (!params.contains(name)) params.set(name, value);
-    }
-
-    ekf_slam::AssociatorLoader loader;
-    const auto assoc = loader.create(lookup, params);
+    // The parameter file as every entry point reads it (app/pipeline_builder.h): the pipeline's
+    // keys at the top level, the associator's in its section; the problem's gate alphas apply
+    // where that section does not set the same parameter.
+    const std::string lookup = ekf_slam::pluginLookupName(associator);
+    ekf_slam::YamlConfiguration configuration(params_file);
+    configuration.setOverride("", "associator", lookup);
+    for (const auto& [name, value] : ekf_slam::problemParameters(problem, lookup))
+      configuration.setDefault(ekf_slam::pluginShortName(lookup), name, value);
+    const auto assoc =
+        ekf_slam::buildPipeline(configuration, ekf_slam::PluginlibFactory()).associator;
     const auto replay = ekf_slam::replayAssociation(problem, *assoc);
     // Only finite results are printed: an infinite distance means the problem is degenerate
     // (a singular innovation covariance), which a caller must not take for an answer.

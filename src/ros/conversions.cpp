@@ -5,27 +5,19 @@
 
 #include <tf2/exceptions.h>
 
+#include "ekf_slam/core/pose2d.h"
+
 namespace ekf_slam {
-
-namespace {
-
-// Yaw of a quaternion. The atan2 form w^2 + x^2 - y^2 - z^2 (instead of 1 - 2 (y^2 + z^2)) is
-// invariant to the quaternion's scale, so a slightly unnormalised message gives the right yaw.
-double yawOf(double x, double y, double z, double w) {
-  return std::atan2(2.0 * (w * z + x * y), w * w + x * x - y * y - z * z);
-}
-
-}  // namespace
 
 Eigen::Vector3d toPose2(const geometry_msgs::Pose& pose) {
   const auto& q = pose.orientation;
-  return Eigen::Vector3d(pose.position.x, pose.position.y, yawOf(q.x, q.y, q.z, q.w));
+  return Eigen::Vector3d(pose.position.x, pose.position.y, quaternionYaw(q.x, q.y, q.z, q.w));
 }
 
 Eigen::Vector3d toPose2(const geometry_msgs::Transform& transform) {
   const auto& q = transform.rotation;
   return Eigen::Vector3d(transform.translation.x, transform.translation.y,
-                         yawOf(q.x, q.y, q.z, q.w));
+                         quaternionYaw(q.x, q.y, q.z, q.w));
 }
 
 geometry_msgs::Pose toPoseMsg(const Eigen::Vector3d& pose) {
@@ -38,11 +30,12 @@ geometry_msgs::Pose toPoseMsg(const Eigen::Vector3d& pose) {
 }
 
 geometry_msgs::Quaternion toQuaternionMsg(double yaw) {
+  const Eigen::Vector4d v = yawQuaternion(yaw);
   geometry_msgs::Quaternion q;
-  q.x = 0.0;
-  q.y = 0.0;
-  q.z = std::sin(0.5 * yaw);
-  q.w = std::cos(0.5 * yaw);
+  q.x = v(0);
+  q.y = v(1);
+  q.z = v(2);
+  q.w = v(3);
   return q;
 }
 

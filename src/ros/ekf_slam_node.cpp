@@ -19,9 +19,9 @@
 #include "ekf_slam/core/parameters.h"
 #include "ekf_slam/core/pipeline_config.h"
 #include "ekf_slam/core/pose2d.h"
-#include "ekf_slam/core/recording_parameter_source.h"
 #include "ekf_slam/ros/conversions.h"
-#include "ekf_slam/ros/ros_parameter_source.h"
+#include "ekf_slam/ros/extractor_loader.h"  // toScanData
+#include "ekf_slam/ros/ros_configuration.h"
 
 namespace ekf_slam {
 
@@ -53,12 +53,6 @@ geometry_msgs::TransformStamped toTransformMsg(const Eigen::Vector3d& t, const s
   return msg;
 }
 
-// "ekf_slam/DJNN" -> "DJNN": the associator's parameter namespace.
-std::string shortName(const std::string& lookup_name) {
-  const std::size_t slash = lookup_name.rfind('/');
-  return slash == std::string::npos ? lookup_name : lookup_name.substr(slash + 1);
-}
-
 // How long the first message of a sensor frame waits for its transform [wall s].
 constexpr double kFirstTfWait = 1.0;
 // How long map -> odom waits for odom -> base_frame at the scan stamp before it falls back to
@@ -86,15 +80,13 @@ EkfSlamNode::EkfSlamNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   readParameters();
 
   // Scan -> observations -> association -> EKF update: the pipeline owns the whole flow.
-  pipeline_ = std::make_unique<SlamPipeline>(pipeline_config_, associator_);
-  if (relocaliser_) pipeline_->setRelocaliser(relocaliser_);
-  pipeline_->setFeatureExtractor(extractor_);
-  pipeline_->setScanFilter(scan_filter_);
-  if (extractor_->needsIntensities() || scan_filter_.needsIntensities()) {
+  pipeline_ = makePipeline(parts_);
+  if (parts_.extractor->needsIntensities() || parts_.scan_filter.needsIntensities()) {
     ROS_INFO(
         "ekf_slam: extractor %s%s needs the scans' intensity channel; a scan without one is "
         "an error",
-        extractor_->name().c_str(), scan_filter_.needsIntensities() ? " (or a scan filter)" : "");
+        parts_.extractor->name().c_str(),
+        parts_.scan_filter.needsIntensities() ? " (or a scan filter)" : "");
   }
   if (!config_.initial_map.empty()) {
     // Throws (the node does not start) when the file is bad or a relocaliser is missing.
@@ -171,7 +163,7 @@ EkfSlamNode::EkfSlamNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   publishMapOutputs();
 
   ROS_INFO("ekf_slam: associator %s, odometry_mode %s, frames %s -> %s -> %s%s",
-           config_.associator.c_str(), pipeline_config_.odometry_mode.c_str(),
+           parts_.associator_name.c_str(), pipeline_config_.odometry_mode.c_str(),
            config_.map_frame.c_str(), config_.odom_frame.c_str(), config_.base_frame.c_str(),
            config_.publish_map_to_base ? " (publishing map -> base)" : "");
 }
@@ -180,74 +172,12 @@ EkfSlamNode::~EkfSlamNode() {
   if (input_spinner_) input_spinner_->stop();
 }
 
-NodeConfig readNodeConfig(const ParameterSource& source) {
-  const ParameterReader p(source);
-  NodeConfig c;  // the defaults
-  c.associator = AssociatorLoader::lookupName(p.text("associator", AssociatorLoader::kDefault));
-  c.map_frame = p.text("map_frame", c.map_frame);
-  c.odom_frame = p.text("odom_frame", c.odom_frame);
-  c.base_frame = p.text("base_frame", c.base_frame);
-  c.publish_tf = p.flag("publish_tf", c.publish_tf);
-  c.publish_map_to_base = p.flag("publish_map_to_base", c.publish_map_to_base);
-  c.publish_odom_tf = p.flag("publish_odom_tf", c.publish_odom_tf);
-  c.transform_tolerance = p.nonNegative("transform_tolerance", c.transform_tolerance);
-  c.transform_publish_period =
-      p.nonNegative("transform_publish_period", c.transform_publish_period);
-  c.diagnostics_period = p.nonNegative("diagnostics_period", c.diagnostics_period);
-  c.visualization_rate = p.nonNegative("visualization_rate", c.visualization_rate);
-  c.input_timeout = p.positive("input_timeout", c.input_timeout);
-  c.queue_size = p.integer("queue_size", c.queue_size, 1, 10000000);
-  c.map_file = p.text("map_file", c.map_file);
-  c.initial_map = p.text("initial_map", c.initial_map);
-  c.initial_map_unknown_pose = p.flag("initial_map_unknown_pose", c.initial_map_unknown_pose);
-  c.markers.default_diameter = p.positive("marker_default_diameter", c.markers.default_diameter);
-  c.markers.height = p.positive("marker_height", c.markers.height);
-  c.markers.text_size = p.positive("marker_text_size", c.markers.text_size);
-  c.markers.show_ids = p.flag("marker_show_ids", c.markers.show_ids);
-  c.markers.show_ellipses = p.flag("marker_show_covariance", c.markers.show_ellipses);
-  for (const std::string* frame : {&c.map_frame, &c.odom_frame, &c.base_frame}) {
-    if (frame->empty()) p.fail("frames", "frame names must not be empty");
-  }
-  if (c.map_frame == c.odom_frame || c.map_frame == c.base_frame || c.odom_frame == c.base_frame) {
-    p.fail("map_frame", "map_frame, odom_frame and base_frame must be three different frames");
-  }
-  // A tf frame has one parent: with both, base_frame would hang below map and below odom.
-  if (c.publish_tf && c.publish_map_to_base && c.publish_odom_tf) {
-    p.fail("publish_map_to_base", "publish_map_to_base and publish_odom_tf together give " +
-                                      c.base_frame + " two parents (" + c.map_frame + " and " +
-                                      c.odom_frame + "): choose one");
-  }
-  return c;
-}
-
 void EkfSlamNode::readParameters() {
-  // Every name read through `source` is recorded: what nobody read is a misspelling.
-  const RosParameterSource ros_source(pnh_);
-  const RecordingParameterSource source(ros_source, ros_source.names());
-  config_ = readNodeConfig(source);
-  // The pipeline's parameters (docs/parameters.md), the same names as the offline runner's YAML.
-  pipeline_config_ = readPipelineConfig(source);
-  // The associator reads its own namespace, e.g. ~DJNN/individual_probability.
-  const RosParameterSource assoc_ros(pnh_, shortName(config_.associator));
-  const RecordingParameterSource assoc_source(assoc_ros, assoc_ros.names());
-  associator_ = loader_.create(config_.associator, assoc_source);
-  // The feature extractor reads its own namespace too, e.g. ~BeaconExtractor/...
-  const std::string extractor = ExtractorLoader::lookupName(pipeline_config_.feature_extractor);
-  const RosParameterSource extractor_ros(pnh_, shortName(extractor));
-  const RecordingParameterSource extractor_source(extractor_ros, extractor_ros.names());
-  extractor_ = createFeatureExtractor(extractor_loader_, extractor, extractor_source, source);
-  scan_filter_ = ScanFilterChain::fromSpecs(readScanFilterChain(pnh_));
-  source.rejectUnread({"scan_filter_chain"});
-  assoc_source.rejectUnread();
-  extractor_source.rejectUnread();
-  // The relocaliser (docs/relocalisation.md) reads its own namespace too, e.g. ~FGCBB/...
-  if (!pipeline_config_.relocaliser.empty()) {
-    const std::string name = RelocaliserLoader::lookupName(pipeline_config_.relocaliser);
-    const RosParameterSource reloc_ros(pnh_, shortName(name));
-    const RecordingParameterSource reloc_source(reloc_ros, reloc_ros.names());
-    relocaliser_ = relocaliser_loader_.create(name, reloc_source);
-    reloc_source.rejectUnread();
-  }
+  // One builder for every entry point (app/pipeline_builder.h): ~ holds the node's and the
+  // pipeline's parameters, ~<PLUGIN>/ each plugin's; a name nobody reads is an error.
+  parts_ = buildPipeline(RosConfiguration(pnh_), plugins_);
+  config_ = parts_.node;
+  pipeline_config_ = parts_.config;
 }
 
 // --- inputs ---------------------------------------------------------------------------------
@@ -598,7 +528,7 @@ void EkfSlamNode::publish(const ScanReport& report) {
     pose_pub_.publish(msg);
   }
   if (associations_pub_.getNumSubscribers() > 0) {
-    associations_pub_.publish(toAssociationStats(report, config_.associator,
+    associations_pub_.publish(toAssociationStats(report, parts_.associator_name,
                                                  pipeline_->activeEkf().numLandmarks(),
                                                  config_.map_frame, stamp));
   }
@@ -808,7 +738,7 @@ void EkfSlamNode::onDiagnosticsTimer(const ros::WallTimerEvent&) {
     proc.message += "; " + std::to_string(c.rejected_updates) + " updates and " +
                     std::to_string(c.rejected_odometry) + " odometry messages rejected";
   }
-  proc.values = {keyValue("associator", config_.associator),
+  proc.values = {keyValue("associator", parts_.associator_name),
                  keyValue("mode", pipeline_config_.mode),
                  keyValue("scans processed", scans_processed_),
                  keyValue("latency mean [ms]", 1e3 * mean_latency),

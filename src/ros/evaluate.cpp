@@ -14,20 +14,14 @@
 #include <stdexcept>
 #include <thread>
 
-#include "ekf_slam/core/pipeline_config.h"
-#include "ekf_slam/core/recording_parameter_source.h"
-#include "ekf_slam/ros/associator_loader.h"
-#include "ekf_slam/ros/ekf_slam_node.h"
+#include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/tools/output_files.h"
-#include "ekf_slam/tools/yaml_parameter_source.h"
 
 namespace ekf_slam {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-std::string shortName(const std::string& lookup) { return lookup.substr(lookup.rfind('/') + 1); }
 
 std::vector<std::string> splitList(const std::string& s) {
   std::vector<std::string> out;
@@ -39,45 +33,15 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
-// The parameters of one (world, associator): the world's values, then the YAML's, then --set.
-struct RunSetup {
-  sim::World world;
-  PipelineConfig config;
-  YamlParameterSource associator_params;
-  YamlParameterSource relocaliser_params;
+// The package's plugins, and "truth": the true associations (KnownAssociation), not a plugin.
+class EvaluationPlugins : public PluginlibFactory {
+ public:
+  std::shared_ptr<DataAssociation> associator(const std::string& lookup) const override {
+    if (lookup == kTruthLookup) return std::make_shared<KnownAssociation>();
+    return PluginlibFactory::associator(lookup);
+  }
+  static constexpr const char* kTruthLookup = "ekf_slam/truth";
 };
-
-YamlParameterSource pipelineSource(const EvaluateOptions& o, const sim::World& w) {
-  YamlParameterSource p =
-      o.params_path.empty() ? YamlParameterSource() : YamlParameterSource::fromFile(o.params_path);
-  for (const auto& [name, value] : sim::pipelineParametersFor(w)) {
-    if (!p.contains(name)) p.set(name, value);
-  }
-  if (!o.odometry_correction.empty()) p.set("odometry_correction", o.odometry_correction);
-  for (const auto& [name, value] : o.overrides) {
-    if (name.find('/') == std::string::npos) p.set(name, value);
-  }
-  return p;
-}
-
-YamlParameterSource associatorSource(const EvaluateOptions& o, const sim::World& w,
-                                     const std::string& short_name) {
-  // Section only, as the node reads ~<NAME> and the offline runner the same YAML.
-  YamlParameterSource p = o.params_path.empty() ? YamlParameterSource()
-                                                : YamlParameterSource::fromFile(
-                                                      o.params_path, short_name,
-                                                      YamlParameterSource::Scope::kSectionOnly);
-  for (const auto& [name, value] : sim::associatorParametersFor(w, short_name)) {
-    if (!p.contains(name)) p.set(name, value);
-  }
-  for (const auto& [name, value] : o.overrides) {
-    const auto slash = name.find('/');
-    if (slash == std::string::npos) continue;
-    const std::string section = name.substr(0, slash);
-    if (section == "*" || section == short_name) p.set(name.substr(slash + 1), value);
-  }
-  return p;
-}
 
 // --- statistics ----------------------------------------------------------------------------------
 
@@ -182,21 +146,10 @@ std::vector<const EvaluationRow*> select(const Evaluation& e, const std::string&
   return out;
 }
 
-// "truth": the true associations (KnownAssociation), not a plugin.
-bool isTruth(const std::string& name) { return name == "truth"; }
-
 std::vector<std::string> associatorShortNames(const EvaluateOptions& o) {
   std::vector<std::string> out;
-  for (const std::string& a : o.associators)
-    out.push_back(isTruth(a) ? a : shortName(AssociatorLoader::lookupName(a)));
+  for (const std::string& a : o.associators) out.push_back(pluginShortName(a));
   return out;
-}
-
-std::shared_ptr<DataAssociation> createAssociator(const AssociatorLoader& loader,
-                                                  const std::string& name,
-                                                  const ParameterSource& params) {
-  if (isTruth(name)) return std::make_shared<KnownAssociation>();
-  return loader.create(name, params);
 }
 
 // Recovery with the relocaliser: runs whose pose error came back under 1 m within 2 s of the
@@ -288,6 +241,55 @@ std::vector<std::string> expandWorldNames(const std::vector<std::string>& patter
   return sim::expandWorldNames(patterns);
 }
 
+YamlConfiguration evaluationConfiguration(const EvaluateOptions& o, const sim::World& w,
+                                          const std::string& associator) {
+  YamlConfiguration c(o.params_path);
+  // The world's values where the file is silent.
+  for (const auto& [name, value] : sim::pipelineParametersFor(w)) c.setDefault("", name, value);
+  const sim::ExtractorSetup extractor = sim::extractorFor(w);
+  if (!extractor.name.empty()) {
+    c.setDefault("", "extractor", extractor.name);
+    for (const auto& [name, value] : extractor.parameters)
+      c.setDefault(extractor.name, name, value);
+  }
+  std::vector<std::string> plugins = {pluginShortName(associator)};
+  if (!o.relocaliser.empty()) plugins.push_back(pluginShortName(o.relocaliser));
+  for (const std::string& plugin : plugins) {
+    for (const auto& [name, value] : sim::associatorParametersFor(w, plugin))
+      c.setDefault(plugin, name, value);
+  }
+  // The options over the file.
+  c.setOverride("", "associator", associator);
+  if (!o.relocaliser.empty()) c.setOverride("", "relocaliser", o.relocaliser);
+  if (!o.odometry_correction.empty())
+    c.setOverride("", "odometry_correction", o.odometry_correction);
+  for (const auto& [name, value] : o.overrides) {
+    const auto slash = name.find('/');
+    if (slash == std::string::npos) {
+      c.setOverride("", name, value);
+      continue;
+    }
+    const std::string section = name.substr(0, slash);
+    for (const std::string& plugin : plugins) {
+      if (section == "*" || section == plugin) c.setOverride(plugin, name.substr(slash + 1), value);
+    }
+  }
+  return c;
+}
+
+RunMetrics evaluateRun(const PipelineParts& parts, const sim::World& world, std::uint64_t seed,
+                       std::vector<double>* nees_per_scan,
+                       std::vector<Eigen::Vector2d>* errors_per_scan, const ScanObserver& on_scan) {
+  const auto t0 = Clock::now();
+  const std::unique_ptr<SlamPipeline> pipeline = makePipeline(parts);
+  pipeline->setSensorOffset(world.sensor.offset);
+  RunMetrics m = runSimulationOn(pipeline.get(), world, seed,
+                                 dynamic_cast<KnownAssociation*>(parts.associator.get()),
+                                 nees_per_scan, errors_per_scan, on_scan);
+  m.wall_time_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  return m;
+}
+
 Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
   if (o.runs < 1) throw std::invalid_argument("--runs must be at least 1");
   if (o.associators.empty()) throw std::invalid_argument("no associators given");
@@ -296,30 +298,21 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
   e.worlds = expandWorldNames(o.worlds);
   if (e.worlds.empty()) throw std::invalid_argument("no world given (--world NAME)");
 
-  // Everything that can be wrong with names and parameters fails here, before any run.
-  AssociatorLoader loader;
-  RelocaliserLoader relocaliser_loader;
+  // Everything that can be wrong with names and parameters fails here, before any run: one
+  // configuration per world and associator, built once.
+  const EvaluationPlugins plugins;
   const std::vector<std::string> shorts = associatorShortNames(o);
-  const std::string reloc_short =
-      o.relocaliser.empty() ? "" : shortName(RelocaliserLoader::lookupName(o.relocaliser));
+  struct RunSetup {
+    sim::World world;
+    YamlConfiguration configuration;
+    std::string odometry_correction;
+  };
   std::vector<RunSetup> setups;  // world-major, then associator
   for (const std::string& name : e.worlds) {
     const sim::World w = sim::makeWorld(name);
-    // Unknown names (misspelt in the YAML or in --set) are errors, as in the node.
-    const YamlParameterSource pipeline_yaml = pipelineSource(o, w);
-    const RecordingParameterSource pipeline_params(pipeline_yaml, pipeline_yaml.names());
-    readNodeConfig(pipeline_params);  // a node's YAML may be given: its settings are accepted
-    const PipelineConfig config = readPipelineConfig(pipeline_params);
-    pipeline_params.rejectUnread();
-    for (std::size_t a = 0; a < o.associators.size(); ++a) {
-      RunSetup s{w, config, associatorSource(o, w, shorts[a]), YamlParameterSource()};
-      const RecordingParameterSource params(s.associator_params, s.associator_params.names());
-      createAssociator(loader, o.associators[a], params);  // validates name and parameters
-      params.rejectUnread();
-      if (!reloc_short.empty()) {
-        s.relocaliser_params = associatorSource(o, w, reloc_short);
-        relocaliser_loader.create(o.relocaliser, s.relocaliser_params);
-      }
+    for (const std::string& associator : o.associators) {
+      RunSetup s{w, evaluationConfiguration(o, w, associator), ""};
+      s.odometry_correction = buildPipeline(s.configuration, plugins).config.correction.mode;
       setups.push_back(std::move(s));
     }
   }
@@ -332,7 +325,7 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
       row.associator = shorts[s % shorts.size()];
       row.run = r;
       row.seed = first + static_cast<std::uint64_t>(r);
-      row.odometry_correction = setups[s].config.correction.mode;
+      row.odometry_correction = setups[s].odometry_correction;
       e.rows.push_back(std::move(row));
     }
   }
@@ -352,18 +345,13 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
       EvaluationRow& row = e.rows[i];
       const RunSetup& setup = setups[i / runs_per_setup];
       try {
-        std::shared_ptr<DataAssociation> associator;
-        std::shared_ptr<Relocaliser> relocaliser;
+        PipelineParts parts;
         {
           std::lock_guard<std::mutex> lock(mutex);
           if (!error.empty()) return;
-          associator = createAssociator(loader, o.associators[(i / runs_per_setup) % shorts.size()],
-                                        setup.associator_params);
-          if (!reloc_short.empty())
-            relocaliser = relocaliser_loader.create(o.relocaliser, setup.relocaliser_params);
+          parts = buildPipeline(setup.configuration, plugins);
         }
-        row.metrics = runSimulation(setup.world, row.seed, setup.config, associator, &row.nees,
-                                    &row.errors, relocaliser);
+        row.metrics = evaluateRun(parts, setup.world, row.seed, &row.nees, &row.errors);
       } catch (const std::exception& ex) {
         std::lock_guard<std::mutex> lock(mutex);
         if (error.empty()) {

@@ -6,16 +6,6 @@
 
 namespace ekf_slam {
 
-std::shared_ptr<FeatureExtractor> createFeatureExtractor(const ExtractorLoader& loader,
-                                                         const std::string& name,
-                                                         const ParameterSource& section,
-                                                         const ParameterSource& top) {
-  if (ExtractorLoader::lookupName(name) == "ekf_slam/TreeExtractor") {
-    return loader.create(name, FallbackParameterSource(section, top, "extractor_"));
-  }
-  return loader.create(name, section);
-}
-
 LaserScanData toScanData(const sensor_msgs::LaserScan& scan) {
   LaserScanData d;
   d.ranges = scan.ranges;

@@ -35,23 +35,20 @@
 
 #include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/LandmarkObservationArray.h"
+#include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/core/angles.h"
 #include "ekf_slam/core/evaluation/simulated_run.h"
 #include "ekf_slam/core/evaluation/trajectory_metrics.h"
 #include "ekf_slam/core/input_sequencer.h"
-#include "ekf_slam/core/pipeline_config.h"
-#include "ekf_slam/core/recording_parameter_source.h"
 #include "ekf_slam/core/slam_pipeline.h"
 #include "ekf_slam/core/smoothing/smoothing_recorder.h"
 #include "ekf_slam/ros/checked_bag_reader.h"
 #include "ekf_slam/ros/conversions.h"
-#include "ekf_slam/ros/ekf_slam_node.h"
 #include "ekf_slam/ros/extractor_loader.h"
 #include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/tools/association_problem.h"
 #include "ekf_slam/tools/output_files.h"
-#include "ekf_slam/tools/scan_filter_yaml.h"
-#include "ekf_slam/tools/yaml_parameter_source.h"
+#include "ekf_slam/tools/yaml_configuration.h"
 
 namespace ekf_slam {
 namespace {
@@ -62,30 +59,19 @@ double secondsSince(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// Forwards every call to the configured associator, and on request captures the association
-// problem of one scan: associate() sees the EKF predicted to the scan and the final observations,
-// which is exactly what a replay needs, without the pipeline exposing its internals.
-class CapturingAssociator : public DataAssociation {
+// Captures, on request, the association problem of one scan: associate() sees the EKF predicted
+// to the scan and the final observations, which is exactly what a replay needs, without the
+// pipeline exposing its internals. Every other hook goes to the associator unchanged.
+class CapturingAssociator : public ForwardingAssociator {
  public:
-  explicit CapturingAssociator(std::shared_ptr<DataAssociation> inner) : inner_(std::move(inner)) {}
+  using ForwardingAssociator::ForwardingAssociator;
 
-  void configure(const ParameterSource& params) override { inner_->configure(params); }
-  std::string name() const override { return inner_->name(); }
   AssociationResult associate(const AssociationContext& context) override {
     if (armed_) {
       armed_ = false;
       problem_ = makeAssociationProblem(context.ekf(), context.model(), context.observations());
     }
-    return inner_->associate(context);
-  }
-  void landmarkAdded(int obs, LandmarkId id) override { inner_->landmarkAdded(obs, id); }
-  void landmarkLoaded(LandmarkId id, std::uint32_t times_observed) override {
-    inner_->landmarkLoaded(id, times_observed);
-  }
-  void reset() override { inner_->reset(); }
-  int evidence(LandmarkId id) const override { return inner_->evidence(id); }
-  std::vector<TentativeFeature> tentativeFeatures() const override {
-    return inner_->tentativeFeatures();
+    return ForwardingAssociator::associate(context);
   }
 
   /// Captures the next associate() call.
@@ -97,7 +83,6 @@ class CapturingAssociator : public DataAssociation {
   const std::optional<AssociationProblem>& problem() const { return problem_; }
 
  private:
-  std::shared_ptr<DataAssociation> inner_;
   bool armed_ = false;
   std::optional<AssociationProblem> problem_;
 };
@@ -493,65 +478,25 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   if (o.bag_path.empty()) throw std::runtime_error("no bag given (--bag FILE)");
   if (o.out_dir.empty()) throw std::runtime_error("no output folder given (--out DIR)");
 
-  // Parameters: the pipeline's at the top level, the associator's in its own section only, as
-  // the node reads ~ and ~<NAME> after rosparam loads the same file.
-  // Every name is recorded: one that neither the pipeline, the node nor the associator reads is a
-  // misspelling and an error, as in the node.
-  const YamlParameterSource top_yaml =
-      o.params_path.empty() ? YamlParameterSource() : YamlParameterSource::fromFile(o.params_path);
-  const RecordingParameterSource top(top_yaml, top_yaml.names());
-  readNodeConfig(top);  // the node's settings: validated here too, used by the node only
-  std::string name = o.associator;
-  if (name.empty() && !top.get("associator", &name)) name = AssociatorLoader::kDefault;
-  const std::string lookup = AssociatorLoader::lookupName(name);
-  const std::string short_name = lookup.substr(lookup.rfind('/') + 1);
-  const PipelineConfig config = readPipelineConfig(top);
-  const YamlParameterSource assoc_yaml =
-      o.params_path.empty()
-          ? YamlParameterSource()
-          : YamlParameterSource::fromFile(o.params_path, short_name,
-                                          YamlParameterSource::Scope::kSectionOnly);
-  const RecordingParameterSource assoc_params(assoc_yaml, assoc_yaml.names());
-  AssociatorLoader loader;
-  auto capturing = std::make_shared<CapturingAssociator>(loader.create(lookup, assoc_params));
-  // The feature extractor from its own section, the scan filters from scan_filter_chain.
-  const std::string extractor = ExtractorLoader::lookupName(config.feature_extractor);
-  const YamlParameterSource extractor_yaml =
-      o.params_path.empty()
-          ? YamlParameterSource()
-          : YamlParameterSource::fromFile(o.params_path, extractor.substr(extractor.rfind('/') + 1),
-                                          YamlParameterSource::Scope::kSectionOnly);
-  const RecordingParameterSource extractor_params(extractor_yaml, extractor_yaml.names());
-  ExtractorLoader extractor_loader;
-  const auto feature_extractor =
-      createFeatureExtractor(extractor_loader, extractor, extractor_params, top);
-  const ScanFilterChain scan_filter =
-      ScanFilterChain::fromSpecs(readScanFilterChainFile(o.params_path));
-  top.rejectUnread({"scan_filter_chain"});
-  assoc_params.rejectUnread();
-  extractor_params.rejectUnread();
-  SlamPipeline pipeline(config, capturing);
+  // Parameters: one builder for every entry point (app/pipeline_builder.h), the options over
+  // the file's `associator` and `relocaliser`.
+  YamlConfiguration configuration(o.params_path);
+  if (!o.associator.empty()) configuration.setOverride("", "associator", o.associator);
+  if (!o.relocaliser.empty()) configuration.setOverride("", "relocaliser", o.relocaliser);
+  PipelineParts parts = buildPipeline(configuration, PluginlibFactory());
+  const PipelineConfig& config = parts.config;
+  const std::string short_name = pluginShortName(parts.associator_name);
+  const std::string relocaliser_short =
+      parts.relocaliser_name.empty() ? "" : pluginShortName(parts.relocaliser_name);
+  auto capturing = std::make_shared<CapturingAssociator>(parts.associator);
+  parts.associator = capturing;
+  const std::unique_ptr<SlamPipeline> owned_pipeline = makePipeline(parts);
+  SlamPipeline& pipeline = *owned_pipeline;
   pipeline.recordUpdateShapes(true);  // update_shapes.csv
-  pipeline.setFeatureExtractor(feature_extractor);
-  pipeline.setScanFilter(scan_filter);
 
-  // Relocaliser (recovery), configured from its own section like the associator.
-  const std::string relocaliser = o.relocaliser.empty() ? config.relocaliser : o.relocaliser;
-  RelocaliserLoader relocaliser_loader;
-  std::string relocaliser_short;
-  if (!relocaliser.empty()) {
-    const std::string reloc_lookup = RelocaliserLoader::lookupName(relocaliser);
-    relocaliser_short = reloc_lookup.substr(reloc_lookup.rfind('/') + 1);
-    const YamlParameterSource reloc_params =
-        o.params_path.empty()
-            ? YamlParameterSource()
-            : YamlParameterSource::fromFile(o.params_path, relocaliser_short,
-                                            YamlParameterSource::Scope::kSectionOnly);
-    pipeline.setRelocaliser(relocaliser_loader.create(reloc_lookup, reloc_params));
-  }
   if (o.unknown_pose && o.load_map.empty())
     throw std::runtime_error("--unknown-pose needs --load-map FILE");
-  if (o.unknown_pose && relocaliser.empty())
+  if (o.unknown_pose && !parts.relocaliser)
     throw std::runtime_error("--unknown-pose needs a relocaliser (--relocaliser NAME)");
   if (o.smooth && !o.load_map.empty())
     throw std::runtime_error(

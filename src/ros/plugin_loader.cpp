@@ -41,12 +41,19 @@ std::vector<std::string> PluginLoader<Base>::available() const {
 
 template <class Base>
 std::string PluginLoader<Base>::lookupName(const std::string& name) {
-  return name.find('/') == std::string::npos ? "ekf_slam/" + name : name;
+  return pluginLookupName(name);
 }
 
 template <class Base>
 std::shared_ptr<Base> PluginLoader<Base>::create(const std::string& name,
                                                  const ParameterSource& params) const {
+  std::shared_ptr<Base> result = instantiate(name);
+  result->configure(params);
+  return result;
+}
+
+template <class Base>
+std::shared_ptr<Base> PluginLoader<Base>::instantiate(const std::string& name) const {
   const std::string lookup = lookupName(name);
   const std::string noun = PluginFamily<Base>::kNoun;
   if (!loader_->isClassAvailable(lookup)) {
@@ -68,7 +75,6 @@ std::shared_ptr<Base> PluginLoader<Base>::create(const std::string& name,
         instance.reset();
         loader.reset();
       });
-  result->configure(params);
   return result;
 }
 

@@ -18,7 +18,7 @@
 #include "ekf_slam/ros/offline_runner.h"
 #include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/tools/output_files.h"
-#include "ekf_slam/tools/yaml_parameter_source.h"
+#include "ekf_slam/tools/yaml_configuration.h"
 
 namespace ekf_slam {
 
@@ -60,16 +60,12 @@ bool parseRange(const std::string& v, std::uint32_t* begin, std::uint32_t* end) 
 ExperimentSummary runRelocalisationExperiment(const RelocalisationExperimentOptions& o,
                                               std::ostream& log) {
   if (o.out_dir.empty()) throw std::runtime_error("no output folder given (--out DIR)");
-  // The relocaliser first: a wrong name or parameter fails before the run.
-  RelocaliserLoader loader;
-  const std::string lookup = RelocaliserLoader::lookupName(o.relocaliser);
-  const std::string short_name = lookup.substr(lookup.rfind('/') + 1);
-  const YamlParameterSource params =
-      o.params_path.empty()
-          ? YamlParameterSource()
-          : YamlParameterSource::fromFile(o.params_path, short_name,
-                                          YamlParameterSource::Scope::kSectionOnly);
-  std::shared_ptr<Relocaliser> relocaliser = loader.create(lookup, params);
+  // The relocaliser first: a wrong name or parameter fails before the run. The whole file is
+  // checked as every entry point checks it (app/pipeline_builder.h).
+  YamlConfiguration configuration(o.params_path);
+  configuration.setOverride("", "relocaliser", o.relocaliser);
+  const std::shared_ptr<Relocaliser> relocaliser =
+      buildPipeline(configuration, PluginlibFactory()).relocaliser;
 
   // 1. The normal run: the map after the map scans, the test scans and their reference poses.
   makeDirectory(o.out_dir);
@@ -180,7 +176,7 @@ ExperimentSummary runRelocalisationExperiment(const RelocalisationExperimentOpti
     all_times.push_back(s.time_us);
   }
   nlohmann::json j;
-  j["relocaliser"] = short_name;
+  j["relocaliser"] = pluginShortName(o.relocaliser);
   j["bag"] = o.bag_path;
   j["params"] = o.params_path;
   j["map_scans"] = {o.map_begin, o.map_end};

@@ -183,4 +183,37 @@ class DataAssociation {
   virtual std::vector<TentativeFeature> tentativeFeatures() const { return {}; }
 };
 
+/// The base of every wrapper of an associator (e.g. the offline runner's problem capture): it
+/// forwards every virtual above to the wrapped one, so a wrapper overrides only what it adds and
+/// can never drop a hook. A virtual added to DataAssociation is forwarded here too
+/// (test_plugin_forwarding counts them).
+class ForwardingAssociator : public DataAssociation {
+ public:
+  explicit ForwardingAssociator(std::shared_ptr<DataAssociation> inner)
+      : inner_(std::move(inner)) {}
+
+  void configure(const ParameterSource& params) override { inner_->configure(params); }
+  std::string name() const override { return inner_->name(); }
+  AssociationResult associate(const AssociationContext& context) override {
+    return inner_->associate(context);
+  }
+  void landmarkAdded(int obs, LandmarkId id) override { inner_->landmarkAdded(obs, id); }
+  void landmarkLoaded(LandmarkId id, std::uint32_t times_observed) override {
+    inner_->landmarkLoaded(id, times_observed);
+  }
+  void poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& posterior) override {
+    inner_->poseCorrected(prior, posterior);
+  }
+  void reset() override { inner_->reset(); }
+  int evidence(LandmarkId id) const override { return inner_->evidence(id); }
+  std::vector<TentativeFeature> tentativeFeatures() const override {
+    return inner_->tentativeFeatures();
+  }
+
+  const DataAssociation& inner() const { return *inner_; }
+
+ private:
+  std::shared_ptr<DataAssociation> inner_;
+};
+
 }  // namespace ekf_slam

@@ -1,4 +1,5 @@
-// Planar rigid transforms (x, y, yaw), shared by the relocalisers and the ROS node. ROS-free.
+// Planar rigid transforms (x, y, yaw) and yaw quaternions, shared by the relocalisers, the
+// simulator and the ROS conversions. ROS-free.
 #pragma once
 
 #include <cmath>
@@ -27,6 +28,18 @@ inline Eigen::Vector3d composePose(const Eigen::Vector3d& a, const Eigen::Vector
 inline Eigen::Vector3d inversePose(const Eigen::Vector3d& a) {
   const Eigen::Vector2d t = -(rotation2d(a.z()).transpose() * a.head<2>());
   return {t.x(), t.y(), -a.z()};
+}
+
+/// A planar rotation by `yaw` as a unit quaternion (x, y, z, w) = (0, 0, sin(yaw/2), cos(yaw/2)).
+inline Eigen::Vector4d yawQuaternion(double yaw) {
+  return {0.0, 0.0, std::sin(0.5 * yaw), std::cos(0.5 * yaw)};
+}
+
+/// The yaw of a quaternion (x, y, z, w). The atan2 form w^2 + x^2 - y^2 - z^2 (instead of
+/// 1 - 2 (y^2 + z^2)) is invariant to the quaternion's scale, so a slightly unnormalised message
+/// gives the right yaw.
+inline double quaternionYaw(double x, double y, double z, double w) {
+  return std::atan2(2.0 * (w * z + x * y), w * w + x * x - y * y - z * z);
 }
 
 }  // namespace ekf_slam

@@ -34,45 +34,14 @@
 #include "ekf_slam/LandmarkObservationArray.h"
 #include "ekf_slam/LoadMap.h"
 #include "ekf_slam/SaveMap.h"
+#include "ekf_slam/app/node_config.h"
+#include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/core/input_sequencer.h"
 #include "ekf_slam/core/slam_pipeline.h"
-#include "ekf_slam/ros/associator_loader.h"
-#include "ekf_slam/ros/extractor_loader.h"
 #include "ekf_slam/ros/markers.h"
+#include "ekf_slam/ros/plugin_loader.h"
 
 namespace ekf_slam {
-
-/// The node's own settings (the pipeline's are PipelineConfig, the associator's its own).
-struct NodeConfig {
-  std::string associator = AssociatorLoader::kDefault;
-  std::string map_frame = "map";
-  std::string odom_frame = "odom";
-  std::string base_frame = "base_link";
-  bool publish_tf = true;            ///< map -> odom (or map -> base_frame, see below)
-  bool publish_map_to_base = false;  ///< no odom frame: publish map -> base_frame instead
-  bool publish_odom_tf = false;      ///< broadcast odom -> base_frame from each odometry message
-  double transform_tolerance = 0.1;  ///< map -> odom is stamped this much ahead [s]
-  /// Wall period of the timer that republishes the latest map -> odom (gmapping's and
-  /// slam_toolbox's transform_publish_period); 0: only after each scan [s].
-  double transform_publish_period = 0.05;
-  double visualization_rate = 5.0;  ///< ~landmarks and ~path, wall-clock Hz; 0: every scan
-  double diagnostics_period = 1.0;  ///< /diagnostics, wall seconds; 0: off
-  double input_timeout = 1.0;       ///< wall seconds without input before pending ones flush
-  /// Subscriber queues, and the bound of the node's own inbox between the receiving thread and
-  /// the processing thread (overflow is counted and warned about, never silent).
-  int queue_size = 100000;
-  std::string map_file;  ///< default path of ~save_map / ~load_map
-  /// A map to load at start-up (empty: none); with initial_map_unknown_pose the robot starts
-  /// lost in it and the relocaliser finds it (localisation in a saved map).
-  std::string initial_map;
-  bool initial_map_unknown_pose = false;
-  MarkerStyle markers;
-};
-
-/// The node's own parameters from `params` (defaults and checks as documented in docs/node.md).
-/// ROS-free, so that the offline runner validates (and accepts) the same YAML keys. Throws
-/// ParameterError naming a bad one.
-NodeConfig readNodeConfig(const ParameterSource& params);
 
 class EkfSlamNode {
  public:
@@ -165,13 +134,8 @@ class EkfSlamNode {
   NodeConfig config_;
   PipelineConfig pipeline_config_;
 
-  AssociatorLoader loader_;
-  std::shared_ptr<DataAssociation> associator_;
-  RelocaliserLoader relocaliser_loader_;
-  std::shared_ptr<Relocaliser> relocaliser_;  ///< null: no recovery (`relocaliser` empty)
-  ExtractorLoader extractor_loader_;
-  std::shared_ptr<FeatureExtractor> extractor_;  ///< `extractor` (docs/feature_extraction.md)
-  ScanFilterChain scan_filter_;                  ///< `scan_filter_chain`
+  PluginlibFactory plugins_;
+  PipelineParts parts_;  ///< the configured plugins (app/pipeline_builder.h)
   std::unique_ptr<SlamPipeline> pipeline_;
   std::unique_ptr<InputSequencer<SensorInput>> sequencer_;
   LandmarkMarkers markers_;

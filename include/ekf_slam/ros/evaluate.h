@@ -5,7 +5,7 @@
 //       --associators ekf_slam/NN,ekf_slam/JCBB,ekf_slam/DJNN --out /tmp/eval  (one line)
 //
 // Every associator runs on the same seeds (run r has seed first_seed + r); each run is a fresh
-// SlamPipeline fed a sim::Simulation (runSimulation, the same numbers ekf_slam_offline reports
+// SlamPipeline fed a sim::Simulation (runSimulationOn, the same numbers ekf_slam_offline reports
 // on the simulated bag of that world and seed). Runs go to a pool of --jobs threads. Writes
 // DIR/results.csv (one row per run and associator), DIR/nees.csv (the Monte Carlo average NEES
 // per scan) and DIR/summary.md (mean and spread per world and associator). With --relocaliser
@@ -20,7 +20,9 @@
 #include <utility>
 #include <vector>
 
+#include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/core/evaluation/simulated_run.h"
+#include "ekf_slam/tools/yaml_configuration.h"
 
 namespace ekf_slam {
 
@@ -71,6 +73,21 @@ struct Evaluation {
 /// sim::expandWorldNames (names and prefixes such as "rrw_kidnap_*"); throws
 /// std::invalid_argument listing the names when one matches nothing.
 std::vector<std::string> expandWorldNames(const std::vector<std::string>& patterns);
+
+/// The configuration of one world and associator ("ekf_slam/DJNN", or "truth"): the world's
+/// values (sim::pipelineParametersFor, sim::associatorParametersFor, sim::extractorFor) where
+/// the YAML is silent, then the options (associator, relocaliser, odometry correction, --set).
+/// buildPipeline() on it gives the run's pipeline, as ekf_slam_offline does from the YAML that
+/// `simulate` writes.
+YamlConfiguration evaluationConfiguration(const EvaluateOptions& options, const sim::World& world,
+                                          const std::string& associator);
+
+/// One run as evaluate makes it: a pipeline from `parts` (buildPipeline of the configuration
+/// above) on world + seed, scored. `on_scan` (may be empty) sees every processed scan.
+RunMetrics evaluateRun(const PipelineParts& parts, const sim::World& world, std::uint64_t seed,
+                       std::vector<double>* nees_per_scan = nullptr,
+                       std::vector<Eigen::Vector2d>* errors_per_scan = nullptr,
+                       const ScanObserver& on_scan = {});
 
 /// Runs everything. Throws std::runtime_error / std::invalid_argument / UnknownAssociatorError /
 /// ParameterError before any run starts when a name or parameter is wrong; a run that throws

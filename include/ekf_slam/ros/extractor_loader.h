@@ -1,6 +1,5 @@
-// Feature extractor and scan filter chain set-up shared by the node, the offline runner and
-// detect_features: the plugin by name from its own section, the chain from
-// `scan_filter_chain` (docs/feature_extraction.md).
+// The laser scan and the scan filter chain from ROS: LaserScan -> LaserScanData, and the chain
+// from the parameter server (`scan_filter_chain`, docs/feature_extraction.md).
 #pragma once
 
 #include <memory>
@@ -15,14 +14,6 @@
 #include "ekf_slam/ros/plugin_loader.h"
 
 namespace ekf_slam {
-
-/// Creates the extractor `name` configured from its own section (`section`, e.g. ~BeaconExtractor).
-/// TreeExtractor's entries fall back on its historical top-level names (extractor_max_range, ...)
-/// in `top`, so every existing config behaves as before.
-std::shared_ptr<FeatureExtractor> createFeatureExtractor(const ExtractorLoader& loader,
-                                                         const std::string& name,
-                                                         const ParameterSource& section,
-                                                         const ParameterSource& top);
 
 /// The chain under `key` of the parameter server (a list of {name, type, params}); empty when
 /// unset. Throws ParameterError for a malformed entry.

@@ -9,17 +9,10 @@
 #include <ros/time.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include "ekf_slam/app/node_config.h"  // MarkerStyle
 #include "ekf_slam/core/slam_pipeline.h"
 
 namespace ekf_slam {
-
-struct MarkerStyle {
-  double default_diameter = 0.3;  ///< cylinder diameter when a landmark's is unknown [m]
-  double height = 1.0;            ///< cylinder height [m]
-  double text_size = 2.0;         ///< height of the id labels [m]: readable at the default zoom
-  bool show_ids = true;
-  bool show_ellipses = true;
-};
 
 /// Builds MarkerArrays for successive maps, remembering which landmarks it has shown.
 class LandmarkMarkers {

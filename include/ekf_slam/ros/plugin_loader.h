@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/core/data_association.h"
 #include "ekf_slam/core/feature_extraction/feature_extractor.h"
 #include "ekf_slam/core/parameters.h"
@@ -41,7 +42,7 @@ template <>
 struct PluginFamily<DataAssociation> {
   static constexpr const char* kBaseClass = "ekf_slam::DataAssociation";
   static constexpr const char* kNoun = "associator";
-  static constexpr const char* kDefault = "ekf_slam/DJNN";
+  static constexpr const char* kDefault = kDefaultAssociator;
 };
 
 template <>
@@ -49,21 +50,17 @@ struct PluginFamily<Relocaliser> {
   static constexpr const char* kBaseClass = "ekf_slam::Relocaliser";
   static constexpr const char* kNoun = "relocaliser";
   /// Used when relocalisation is switched on without a name.
-  static constexpr const char* kDefault = "ekf_slam/FGCBB";
+  static constexpr const char* kDefault = kDefaultRelocaliser;
 };
 
 template <>
 struct PluginFamily<FeatureExtractor> {
   static constexpr const char* kBaseClass = "ekf_slam::FeatureExtractor";
   static constexpr const char* kNoun = "feature extractor";
-  static constexpr const char* kDefault = "ekf_slam/TreeExtractor";
+  static constexpr const char* kDefault = kDefaultExtractor;
 };
 
-/// Thrown for a name no plugin of the family declares; the message lists the declared names.
-class UnknownPluginError : public std::invalid_argument {
- public:
-  using std::invalid_argument::invalid_argument;
-};
+// UnknownPluginError (app/pipeline_builder.h): a name no plugin of the family declares.
 using UnknownAssociatorError = UnknownPluginError;
 using UnknownRelocaliserError = UnknownPluginError;
 
@@ -86,9 +83,10 @@ class PluginLoader {
   /// Full lookup name for `name`: a bare algorithm name ("DJNN") gets the "ekf_slam/" prefix.
   static std::string lookupName(const std::string& name);
 
-  /// Creates the plugin `name` (see lookupName) and configures it from `params`.
-  /// Throws UnknownPluginError for an undeclared name, std::runtime_error when the plugin
-  /// library cannot be loaded, ParameterError from configure().
+  /// Creates the plugin `name` (see lookupName), unconfigured. Throws UnknownPluginError for an
+  /// undeclared name, std::runtime_error when the plugin library cannot be loaded.
+  std::shared_ptr<Base> instantiate(const std::string& name) const;
+  /// The same, configured from `params` (ParameterError from configure()).
   std::shared_ptr<Base> create(const std::string& name, const ParameterSource& params) const;
 
  private:
@@ -99,5 +97,25 @@ class PluginLoader {
 using AssociatorLoader = PluginLoader<DataAssociation>;
 using RelocaliserLoader = PluginLoader<Relocaliser>;
 using ExtractorLoader = PluginLoader<FeatureExtractor>;
+
+/// The PluginFactory of the ROS shells and tools: every family through pluginlib, so that other
+/// packages' plugins can be named too. Thread-compatible: callers serialise creation.
+class PluginlibFactory : public PluginFactory {
+ public:
+  std::shared_ptr<DataAssociation> associator(const std::string& lookup) const override {
+    return associators_.instantiate(lookup);
+  }
+  std::shared_ptr<Relocaliser> relocaliser(const std::string& lookup) const override {
+    return relocalisers_.instantiate(lookup);
+  }
+  std::shared_ptr<FeatureExtractor> extractor(const std::string& lookup) const override {
+    return extractors_.instantiate(lookup);
+  }
+
+ private:
+  AssociatorLoader associators_;
+  RelocaliserLoader relocalisers_;
+  ExtractorLoader extractors_;
+};
 
 }  // namespace ekf_slam

@@ -43,6 +43,25 @@ double coveringRange(const World& w) {
 
 }  // namespace
 
+double stampOnBag(double sim_stamp) {
+  // ros::TimeBase::fromSec and toSec, without ROS.
+  const double t = sim_stamp + kStampOffset;
+  std::uint64_t sec = static_cast<std::uint32_t>(static_cast<std::int64_t>(std::floor(t)));
+  std::uint64_t nsec = static_cast<std::uint32_t>(std::round((t - static_cast<double>(sec)) * 1e9));
+  sec += nsec / 1000000000ull;
+  nsec %= 1000000000ull;
+  return static_cast<double>(sec) + 1e-9 * static_cast<double>(nsec);
+}
+
+Eigen::Vector3d poseOnBag(const Eigen::Vector3d& pose) {
+  const Eigen::Vector4d q = yawQuaternion(pose.z());
+  return {pose.x(), pose.y(), quaternionYaw(q(0), q(1), q(2), q(3))};
+}
+
+OdometryInput odometryOnBag(const OdometrySample& sample) {
+  return {stampOnBag(sample.stamp), sample.twist, poseOnBag(sample.pose)};
+}
+
 std::map<std::string, std::string> pipelineParametersFor(const World& world) {
   const TwistParams t = twistNoiseFor(world);
   std::map<std::string, std::string> p = {
@@ -502,8 +521,7 @@ void feedSimulation(sim::Simulation& simulation, SlamPipeline& pipeline,
                     const std::function<bool(const sim::ObservationSet&)>& on_set) {
   for (auto e = simulation.next(); e != sim::Simulation::Event::kEnd; e = simulation.next()) {
     if (e == sim::Simulation::Event::kOdometry) {
-      const sim::OdometrySample& o = simulation.odometry();
-      pipeline.addOdometry({o.stamp + sim::kStampOffset, o.twist, o.pose});
+      pipeline.addOdometry(sim::odometryOnBag(simulation.odometry()));
     } else if (!on_set(simulation.observations())) {
       return;
     }
@@ -512,7 +530,8 @@ void feedSimulation(sim::Simulation& simulation, SlamPipeline& pipeline,
 
 RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std::uint64_t seed,
                            KnownAssociation* known, std::vector<double>* nees_per_scan,
-                           std::vector<Eigen::Vector2d>* errors_per_scan) {
+                           std::vector<Eigen::Vector2d>* errors_per_scan,
+                           const ScanObserver& on_scan) {
   const std::optional<sim::CarPark> laser_world = sim::laserWorld(world.name);
   if (laser_world && known != nullptr) {
     throw std::invalid_argument("the true associations need truth ids before association; world '" +
@@ -539,23 +558,26 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
     }
     truth.clear();
     ScanReport report;
+    // Scored against the true pose as a bag's /ground_truth holds it (the offline runner's).
+    const Eigen::Vector3d true_pose = sim::poseOnBag(set.true_pose);
     if (laser) {
       // The simulator's point observations are ignored: the laser sees the scene.
       const Eigen::Vector3d sensor = composePose(set.true_pose, world.sensor.offset);
-      report =
-          pipeline->processScan(set.stamp + sim::kStampOffset, laser->scan(sensor, &laser_noise));
-      truth = truthByProximity(sensor, report.observations, beacons, &clutter);
+      report = pipeline->processScan(sim::stampOnBag(set.stamp), laser->scan(sensor, &laser_noise));
+      truth = truthByProximity(composePose(true_pose, world.sensor.offset), report.observations,
+                               beacons, &clutter);
     } else {
       const std::vector<LandmarkId> all = set.truthIds();
       if (known != nullptr) known->setTruth(all);  // the pipeline keeps every valid observation
-      report = pipeline->processObservations(set.stamp + sim::kStampOffset, set.toObservations());
+      report = pipeline->processObservations(sim::stampOnBag(set.stamp), set.toObservations());
       for (const std::uint32_t i : report.input_index) truth.push_back(all[i]);
     }
     // activeEkf(): after a processed scan no motion is pending, so reading it changes nothing
     // (a dropped duplicate scan returns before the prediction: not read then).
     const bool read_map = scorer.needsMap(report) && !report.duplicate;
-    scorer.addScan(report, truth, pipeline->pose(), pipeline->poseCovariance(), &set.true_pose,
+    scorer.addScan(report, truth, pipeline->pose(), pipeline->poseCovariance(), &true_pose,
                    read_map ? &pipeline->activeEkf() : nullptr);
+    if (on_scan) on_scan(report, *pipeline);
     return true;
   });
   if (nees_per_scan != nullptr) *nees_per_scan = scorer.neesPerScan();

@@ -40,6 +40,17 @@ namespace sim {
 /// a bag run and a direct run see the same times.
 constexpr double kStampOffset = 1.0;
 
+/// The stamp a bag gives back for simulation stamp `sim_stamp`: sim_stamp + kStampOffset held as
+/// whole seconds and nanoseconds (ros::Time's fromSec, then toSec). runSimulation feeds these, so
+/// that a direct run and the run of its bag (ekf_slam_offline, the node) are the same run to the
+/// last bit.
+double stampOnBag(double sim_stamp);
+/// A pose as a bag's message gives it back: its yaw through the message's quaternion
+/// (yawQuaternion, then quaternionYaw).
+Eigen::Vector3d poseOnBag(const Eigen::Vector3d& pose);
+/// An odometry sample as a bag gives it back (stampOnBag, poseOnBag).
+OdometryInput odometryOnBag(const OdometrySample& sample);
+
 /// Pipeline parameters (the names of docs/parameters.md, values as text) that match a world:
 /// initial pose = the world's start pose, twist-mode noise = twistNoiseFor(world) (a world with
 /// wheel factors, `aekf`: its exact speed and steering noise, no wheel-factor random walk), R =
@@ -269,6 +280,9 @@ class RunScorer {
   std::uint64_t wrong_relocalisations_map_ = 0;
 };
 
+/// Called after every processed scan of a run (tests, tools).
+using ScanObserver = std::function<void(const ScanReport&, const SlamPipeline&)>;
+
 /// Feeds a simulation to a pipeline as the offline runner feeds a simulated bag: every odometry
 /// sample to addOdometry (with the bag's stamp offset sim::kStampOffset), every observation set
 /// to `on_set`, which processes it. Stops at the simulation's end or when on_set returns false.
@@ -281,10 +295,12 @@ void feedSimulation(sim::Simulation& simulation, SlamPipeline& pipeline,
 /// feature's truth is the landmark within kLaserTruthDistance of where it points, else clutter.
 /// `known`: the pipeline's associator when it is KnownAssociation (point worlds only: a laser
 /// world's truth is known after the extraction, so it throws std::invalid_argument).
+/// `on_scan` (may be empty) sees every processed scan after it is scored.
 RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std::uint64_t seed,
                            KnownAssociation* known = nullptr,
                            std::vector<double>* nees_per_scan = nullptr,
-                           std::vector<Eigen::Vector2d>* errors_per_scan = nullptr);
+                           std::vector<Eigen::Vector2d>* errors_per_scan = nullptr,
+                           const ScanObserver& on_scan = {});
 /// See runSimulationOn [m].
 constexpr double kLaserTruthDistance = 0.5;
 /// The truth of features extracted from a scan (no truth ids of their own): for each observation

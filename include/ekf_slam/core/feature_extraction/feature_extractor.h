@@ -6,9 +6,11 @@
 #pragma once
 
 #include <limits>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ekf_slam/core/data_association.h"  // Observation
@@ -60,6 +62,25 @@ class FeatureExtractor {
   /// noise (sigma_range, sigma_bearing). Non-finite or negative ranges count as no return.
   /// Must be safe to call from one thread at a time; may keep scratch buffers.
   virtual std::vector<Observation> extract(const LaserScanData& scan) const = 0;
+};
+
+/// The base of every wrapper of a feature extractor: forwards every virtual above, so a wrapper
+/// overrides only what it adds (test_plugin_forwarding counts them).
+class ForwardingFeatureExtractor : public FeatureExtractor {
+ public:
+  explicit ForwardingFeatureExtractor(std::shared_ptr<FeatureExtractor> inner)
+      : inner_(std::move(inner)) {}
+
+  void configure(const ParameterSource& params) override { inner_->configure(params); }
+  std::string name() const override { return inner_->name(); }
+  bool needsIntensities() const override { return inner_->needsIntensities(); }
+  void checkScan(const LaserScanData& scan) const override { inner_->checkScan(scan); }
+  std::vector<Observation> extract(const LaserScanData& scan) const override {
+    return inner_->extract(scan);
+  }
+
+ private:
+  std::shared_ptr<FeatureExtractor> inner_;
 };
 
 /// Reads `name` from `primary`, else `fallback_prefix + name` from `fallback`: how TreeExtractor's

@@ -10,7 +10,9 @@
 
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -84,6 +86,30 @@ class Relocaliser {
   virtual RelocalisationResult relocaliseWindow(const std::vector<CarriedScan>& scans,
                                                 const Eigen::Vector3d& sensor_offset,
                                                 const PosePrior* prior);
+};
+
+/// The base of every wrapper of a relocaliser: forwards every virtual above, so a wrapper
+/// overrides only what it adds (test_plugin_forwarding counts them).
+class ForwardingRelocaliser : public Relocaliser {
+ public:
+  explicit ForwardingRelocaliser(std::shared_ptr<Relocaliser> inner) : inner_(std::move(inner)) {}
+
+  void configure(const ParameterSource& params) override { inner_->configure(params); }
+  std::string name() const override { return inner_->name(); }
+  void setMap(const std::vector<MapLandmark>& map) override { inner_->setMap(map); }
+  RelocalisationResult relocalise(const std::vector<Observation>& observations,
+                                  const Eigen::Vector3d& sensor_offset,
+                                  const PosePrior* prior) override {
+    return inner_->relocalise(observations, sensor_offset, prior);
+  }
+  RelocalisationResult relocaliseWindow(const std::vector<CarriedScan>& scans,
+                                        const Eigen::Vector3d& sensor_offset,
+                                        const PosePrior* prior) override {
+    return inner_->relocaliseWindow(scans, sensor_offset, prior);
+  }
+
+ private:
+  std::shared_ptr<Relocaliser> inner_;
 };
 
 }  // namespace ekf_slam

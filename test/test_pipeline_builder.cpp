@@ -1,0 +1,173 @@
+// The one pipeline builder (app/pipeline_builder.h), ROS-free: plugin names, sections, the
+// unread-key rule, TreeExtractor's fallback, shared sections, and the layers of a YAML
+// configuration (defaults under the file, overrides over it).
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+
+#include "ekf_slam/app/pipeline_builder.h"
+#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/nn.h"
+#include "ekf_slam/core/association/rrwsc.h"
+#include "ekf_slam/core/feature_extraction/beacon_extractor.h"
+#include "ekf_slam/core/feature_extraction/tree_feature_extractor.h"
+#include "ekf_slam/core/relocalisation/fgcbb.h"
+#include "ekf_slam/core/relocalisation/rrwsc_relocaliser.h"
+#include "ekf_slam/tools/yaml_configuration.h"
+
+namespace ekf_slam {
+namespace {
+
+// The package's plugins constructed directly (what pluginlib does in the shells).
+class DirectFactory : public PluginFactory {
+ public:
+  std::shared_ptr<DataAssociation> associator(const std::string& lookup) const override {
+    if (lookup == "ekf_slam/DJNN") return std::make_shared<DJNN>();
+    if (lookup == "ekf_slam/NN") return std::make_shared<NN>();
+    if (lookup == "ekf_slam/RRWSC") return std::make_shared<RRWSC>();
+    throw UnknownPluginError("unknown associator '" + lookup + "'");
+  }
+  std::shared_ptr<Relocaliser> relocaliser(const std::string& lookup) const override {
+    if (lookup == "ekf_slam/FGCBB") return std::make_shared<FGCBB>();
+    if (lookup == "ekf_slam/RRWSC") return std::make_shared<RRWSCRelocaliser>();
+    throw UnknownPluginError("unknown relocaliser '" + lookup + "'");
+  }
+  std::shared_ptr<FeatureExtractor> extractor(const std::string& lookup) const override {
+    if (lookup == "ekf_slam/TreeExtractor") return std::make_shared<TreeFeatureExtractor>();
+    if (lookup == "ekf_slam/BeaconExtractor") return std::make_shared<BeaconExtractor>();
+    throw UnknownPluginError("unknown feature extractor '" + lookup + "'");
+  }
+};
+
+PipelineParts build(const std::string& yaml) {
+  return buildPipeline(YamlConfiguration::fromText(yaml, "test.yaml"), DirectFactory());
+}
+
+// The ParameterError's text, or "" when it builds.
+std::string errorOf(const std::string& yaml) {
+  try {
+    build(yaml);
+  } catch (const ParameterError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(PipelineBuilder, NamesAndDefaults) {
+  EXPECT_EQ(pluginLookupName("DJNN"), "ekf_slam/DJNN");
+  EXPECT_EQ(pluginLookupName("other_pkg/Mine"), "other_pkg/Mine");
+  EXPECT_EQ(pluginShortName("ekf_slam/DJNN"), "DJNN");
+  EXPECT_EQ(pluginShortName("DJNN"), "DJNN");
+
+  const PipelineParts p = build("");
+  EXPECT_EQ(p.associator_name, "ekf_slam/DJNN");
+  EXPECT_EQ(p.extractor_name, "ekf_slam/TreeExtractor");
+  EXPECT_TRUE(p.relocaliser_name.empty());
+  EXPECT_EQ(p.relocaliser, nullptr);
+  ASSERT_NE(dynamic_cast<DJNN*>(p.associator.get()), nullptr);
+  ASSERT_NE(dynamic_cast<TreeFeatureExtractor*>(p.extractor.get()), nullptr);
+  EXPECT_EQ(p.node.map_frame, "map");
+  EXPECT_EQ(p.config.odometry_mode, "twist");
+}
+
+TEST(PipelineBuilder, EachPluginReadsItsSection) {
+  const PipelineParts p = build(R"(
+associator: NN
+relocaliser: ekf_slam/FGCBB
+extractor: BeaconExtractor
+sigma_range: 0.3
+map_frame: world
+NN:
+  individual_probability: 0.9
+FGCBB:
+  sensor_range: 20.0
+BeaconExtractor:
+  beacon_radius: 0.05
+DJNN:
+  not_read: 1   # another associator's section is not looked at
+scan_filter_chain:
+  - {name: near, type: laser_filters/LaserScanRangeFilter, params: {lower_threshold: 0.5}}
+)");
+  EXPECT_EQ(p.associator_name, "ekf_slam/NN");
+  EXPECT_EQ(p.relocaliser_name, "ekf_slam/FGCBB");
+  EXPECT_DOUBLE_EQ(p.config.sigma_range, 0.3);
+  EXPECT_EQ(p.node.map_frame, "world");
+  EXPECT_DOUBLE_EQ(dynamic_cast<FGCBB&>(*p.relocaliser).params().sensor_range, 20.0);
+  EXPECT_DOUBLE_EQ(dynamic_cast<BeaconExtractor&>(*p.extractor).params().beacon_radius, 0.05);
+  EXPECT_EQ(p.scan_filter.size(), 1u);
+  const std::unique_ptr<SlamPipeline> pipeline = makePipeline(p);
+  EXPECT_EQ(&pipeline->associator(), p.associator.get());
+  EXPECT_EQ(&pipeline->featureExtractor(), p.extractor.get());
+}
+
+// The same rule for every part: a name nobody reads is an error naming it and its nearest
+// known neighbour.
+TEST(PipelineBuilder, AMisspeltKeyIsTheSameErrorInEverySection) {
+  EXPECT_EQ(errorOf("sigma_rnage: 0.3\n"),
+            "unknown parameter test.yaml:sigma_rnage (did you mean sigma_range?)");
+  EXPECT_EQ(errorOf("DJNN:\n  individual_probabilty: 0.9\n"),
+            "unknown parameter test.yaml:DJNN/individual_probabilty (did you mean "
+            "individual_probability?)");
+  EXPECT_EQ(errorOf("TreeExtractor:\n  range_jmp: 1.0\n"),
+            "unknown parameter test.yaml:TreeExtractor/range_jmp (did you mean range_jump?)");
+  EXPECT_EQ(errorOf("relocaliser: FGCBB\nFGCBB:\n  sensor_rnage: 20\n"),
+            "unknown parameter test.yaml:FGCBB/sensor_rnage (did you mean sensor_range?)");
+  EXPECT_EQ(errorOf("scan_filter_chain: []\n"), "");  // the chain is the builder's own key
+  // A bad value names its entry too.
+  EXPECT_NE(errorOf("DJNN:\n  individual_probability: 2\n").find("DJNN/individual_probability"),
+            std::string::npos);
+}
+
+TEST(PipelineBuilder, UnknownPluginsAreRefused) {
+  EXPECT_THROW(build("associator: DJN\n"), UnknownPluginError);
+  EXPECT_THROW(build("relocaliser: FGCB\n"), UnknownPluginError);
+  EXPECT_THROW(build("extractor: Trees\n"), UnknownPluginError);
+}
+
+TEST(PipelineBuilder, TreeExtractorFallsBackOnItsTopLevelNames) {
+  const PipelineParts p = build("extractor_max_range: 40\nTreeExtractor:\n  range_jump: 1.2\n");
+  const auto& tree = dynamic_cast<TreeFeatureExtractor&>(*p.extractor);
+  EXPECT_DOUBLE_EQ(tree.detector().params().max_range, 40.0);
+  EXPECT_DOUBLE_EQ(tree.detector().params().range_jump, 1.2);
+}
+
+// The RRWSC associator and the RRWSC relocaliser share the section RRWSC: a key either reads is
+// known, one neither reads is not.
+TEST(PipelineBuilder, PluginsOfOneNameShareTheirSection) {
+  const std::string both = "associator: RRWSC\nrelocaliser: RRWSC\n";
+  EXPECT_EQ(errorOf(both + "RRWSC:\n  stale_scans: 5\n  min_inliers: 6\n"), "");
+  EXPECT_EQ(errorOf(both + "RRWSC:\n  min_inlier: 6\n"),
+            "unknown parameter test.yaml:RRWSC/min_inlier (did you mean min_inliers?)");
+  // Without the relocaliser, its key is nobody's.
+  EXPECT_NE(errorOf("associator: RRWSC\nRRWSC:\n  min_inliers: 6\n"), "");
+}
+
+TEST(PipelineBuilder, DefaultsLieUnderTheFileAndOverridesOverIt) {
+  YamlConfiguration c =
+      YamlConfiguration::fromText("sigma_range: 0.3\nDJNN:\n  admit_evidence: 4\n");
+  c.setDefault("", "sigma_range", "0.9");       // the file wins
+  c.setDefault("", "sigma_bearing", "0.02");    // the file is silent
+  c.setDefault("DJNN", "admit_evidence", "9");  // the file wins
+  c.setOverride("", "associator", "DJNN");
+  c.setOverride("DJNN", "individual_probability", "0.9");
+  const PipelineParts p = buildPipeline(c, DirectFactory());
+  EXPECT_DOUBLE_EQ(p.config.sigma_range, 0.3);
+  EXPECT_DOUBLE_EQ(p.config.sigma_bearing, 0.02);
+  const auto& djnn = dynamic_cast<DJNN&>(*p.associator);
+  EXPECT_EQ(djnn.params().admit_evidence, 4);
+  EXPECT_DOUBLE_EQ(djnn.params().individual_probability, 0.9);
+  c.setOverride("", "sigma_range", "0.7");  // an override wins over the file
+  EXPECT_DOUBLE_EQ(buildPipeline(c, DirectFactory()).config.sigma_range, 0.7);
+  // A default for a key nobody reads is as wrong as the file's own.
+  c.setDefault("DJNN", "gatee", "1");
+  EXPECT_THROW(buildPipeline(c, DirectFactory()), ParameterError);
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

@@ -44,7 +44,8 @@ if [[ $ctest_rc -ne 0 && $failed -eq 0 ]]; then failed=1; fi  # a crashed binary
 # Checks beyond the test binaries, each counted as one test: the README's main command as a user
 # runs it (CI once stayed green while it failed in every fresh clone), on the data set when it is
 # there (in CI it must be) and on the simulated world; on the data set also the saved-map
-# windows (scripts/saved_map_windows.sh); catkin_lint --strict; rosdep resolving
+# windows (scripts/saved_map_windows.sh) and the behaviour identity (scripts/identity.sh);
+# catkin_lint --strict; rosdep resolving
 # every key of package.xml.
 cd "$EKF_SLAM_ROOT"
 check() {  # check NAME COMMAND...: counted as one test, its output shown when it fails
@@ -64,6 +65,9 @@ if [[ -f "$VP_DATA/aa3_dr.mat" ]]; then
   # Localisation in the smoothed saved map (docs/relocalisation.md): fails on any wrong fix.
   check saved_map_windows env SMOOTH=1 "$EKF_SLAM_ROOT/scripts/saved_map_windows.sh" \
     "$EKF_SLAM_BUILD/saved_map_windows"
+  # Behaviour identity against the recorded reference (scripts/identity.sh): a change meant to
+  # change nothing must leave these outputs byte for byte; one that changes them re-records.
+  check identity "$EKF_SLAM_ROOT/scripts/identity.sh" check --quick
 elif [[ ${CI:-} == true ]]; then
   echo "demo_victoria_park: FAILED: no Victoria Park data in $VP_DATA (CI=true needs it)"
   failed=$((failed + 1))

@@ -30,14 +30,14 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/hungarian.h"
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/association/rrwsc.h"
-#include "ekf_slam/core/evaluation/association_ceiling.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
-#include "ekf_slam/core/parameters.h"
-#include "ekf_slam/core/simulation/simulator.h"
+#include "ekf_slam/evaluation/association_ceiling.h"
+#include "ekf_slam/evaluation/simulated_run.h"
+#include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/evaluation/simulation/simulator.h"
 
 namespace {
 

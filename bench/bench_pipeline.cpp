@@ -12,9 +12,9 @@
 #include <random>
 #include <vector>
 
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 
 using ekf_slam::Observation;
 

@@ -12,9 +12,9 @@
 #include <cstdlib>
 #include <vector>
 
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/relocalisation/rrwsc_relocaliser.h"
-#include "ekf_slam/core/simulation/simulator.h"
+#include "ekf_slam/evaluation/simulation/simulator.h"
 
 int main(int argc, char** argv) {
   using namespace ekf_slam;

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/hungarian.h"
 #include "ekf_slam/core/association/jcbb.h"
 #include "ekf_slam/core/association/nn.h"

@@ -4,7 +4,7 @@
 #include <map>
 #include <string>
 
-#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
 
 namespace ekf_slam {
 namespace assoc_test {

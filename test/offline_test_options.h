@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "ekf_slam/ros/offline_runner.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
 
 namespace test_files {
 

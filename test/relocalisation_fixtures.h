@@ -14,7 +14,7 @@
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/relocalisation/relocaliser.h"
 

@@ -11,8 +11,8 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/ros/offline_runner.h"
-#include "ekf_slam/ros/simulation_bag.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
+#include "ekf_slam/tools/simulation_bag.h"
 #include "offline_test_options.h"
 #include "test_files.h"
 

@@ -8,7 +8,7 @@
 
 #include <Eigen/LU>
 
-#include "ekf_slam/core/evaluation/simulated_run.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/core/filter/motion_models.h"
 
 namespace ekf_slam {

@@ -7,8 +7,8 @@
 
 #include <gtest/gtest.h>
 
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/evaluation/association_ceiling.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/evaluation/association_ceiling.h"
 
 namespace ekf_slam {
 namespace {

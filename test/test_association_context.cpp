@@ -11,9 +11,9 @@
 #include <Eigen/Dense>
 
 #include "association_fixtures.h"
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/nn.h"
-#include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/association/data_association.h"
 
 namespace ekf_slam {
 namespace {

@@ -6,9 +6,9 @@
 
 #include <Eigen/Cholesky>
 
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/evaluation/association_metrics.h"
-#include "ekf_slam/core/simulation/simulator.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/evaluation/scoring/association_metrics.h"
+#include "ekf_slam/evaluation/simulation/simulator.h"
 
 namespace ekf_slam {
 namespace {

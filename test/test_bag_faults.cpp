@@ -19,8 +19,8 @@
 #include <nlohmann/json.hpp>
 
 #include "ekf_slam/data/victoria_park.h"
-#include "ekf_slam/ros/checked_bag_reader.h"
-#include "ekf_slam/ros/offline_runner.h"
+#include "ekf_slam/ros/offline/checked_bag_reader.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
 #include "fault_bags.h"
 #include "offline_test_options.h"

@@ -13,8 +13,8 @@
 #include <Eigen/LU>
 
 #include "ekf_slam/core/association/nn.h"
-#include "ekf_slam/core/pose2d.h"
-#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/core/common/pose2d.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 #include "ekf_slam/core/smoothing/batch_smoother.h"
 
 namespace ekf_slam {

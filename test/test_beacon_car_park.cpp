@@ -8,12 +8,12 @@
 #include <memory>
 #include <vector>
 
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
-#include "ekf_slam/core/evaluation/trajectory_metrics.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/evaluation/simulated_run.h"
+#include "ekf_slam/evaluation/scoring/trajectory_metrics.h"
 #include "ekf_slam/core/feature_extraction/beacon_extractor.h"
-#include "ekf_slam/core/pose2d.h"
-#include "ekf_slam/core/simulation/laser_scan_simulator.h"
+#include "ekf_slam/core/common/pose2d.h"
+#include "ekf_slam/evaluation/simulation/laser_scan_simulator.h"
 
 using namespace ekf_slam;
 

@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "association_fixtures.h"
-#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/hungarian.h"
 #include "ekf_slam/core/association/jcbb.h"
 #include "ekf_slam/core/association/nn.h"

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "ekf_slam/core/chi2.h"
+#include "ekf_slam/core/common/chi2.h"
 
 namespace ekf_slam {
 namespace {

@@ -4,8 +4,8 @@
 
 #include <cmath>
 
-#include "ekf_slam/core/evaluation/simulated_run.h"
-#include "ekf_slam/core/simulation/simulator.h"
+#include "ekf_slam/evaluation/simulated_run.h"
+#include "ekf_slam/evaluation/simulation/simulator.h"
 
 namespace ekf_slam {
 namespace {

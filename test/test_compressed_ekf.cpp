@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
-#include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/evaluation/simulated_run.h"
+#include "ekf_slam/core/pipeline/pipeline_config.h"
 
 namespace ekf_slam {
 namespace {

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "ekf_slam/core/coverage_grid.h"
+#include "ekf_slam/core/common/coverage_grid.h"
 
 namespace ekf_slam {
 namespace {

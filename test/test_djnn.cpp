@@ -10,10 +10,10 @@
 
 #include "association_fixtures.h"
 #include "djnn_fixtures.h"
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/nn.h"
-#include "ekf_slam/core/chi2.h"
+#include "ekf_slam/core/common/chi2.h"
 
 namespace ekf_slam {
 namespace {

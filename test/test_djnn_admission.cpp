@@ -12,8 +12,8 @@
 
 #include "association_fixtures.h"
 #include "djnn_fixtures.h"
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
 
 namespace ekf_slam {
 namespace {

@@ -16,9 +16,9 @@
 
 #include "association_fixtures.h"
 #include "djnn_fixtures.h"
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/association/held_window.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/association/djnn/held_window.h"
 #include "ekf_slam/core/association/joint_ml.h"
 #include "ekf_slam/core/filter/motion_models.h"
 

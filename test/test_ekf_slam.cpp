@@ -12,7 +12,7 @@
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/filter/observation_model.h"

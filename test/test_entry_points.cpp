@@ -20,10 +20,10 @@
 #include <nlohmann/json.hpp>
 
 #include "ekf_slam/ros/conversions.h"
-#include "ekf_slam/ros/evaluate.h"
-#include "ekf_slam/ros/offline_runner.h"
+#include "ekf_slam/tools/evaluate.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
 #include "ekf_slam/ros/plugin_loader.h"
-#include "ekf_slam/ros/simulation_bag.h"
+#include "ekf_slam/tools/simulation_bag.h"
 #include "offline_test_options.h"
 #include "test_files.h"
 

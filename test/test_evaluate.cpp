@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/parameters.h"
-#include "ekf_slam/ros/evaluate.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/tools/evaluate.h"
 #include "ekf_slam/ros/plugin_loader.h"
 #include "test_files.h"
 

@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "ekf_slam/ros/evaluate.h"
+#include "ekf_slam/tools/evaluate.h"
 #include "test_files.h"
 
 namespace ekf_slam {

@@ -10,7 +10,7 @@
 #include "ekf_slam/core/feature_extraction/beacon_extractor.h"
 #include "ekf_slam/core/feature_extraction/tree_feature_extractor.h"
 #include "ekf_slam/ros/plugin_loader.h"
-#include "ekf_slam/tools/yaml_configuration.h"
+#include "ekf_slam/app/yaml_configuration.h"
 
 using namespace ekf_slam;
 

@@ -7,9 +7,9 @@
 #include <memory>
 #include <vector>
 
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/evaluation/association_metrics.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/evaluation/scoring/association_metrics.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 
 namespace ekf_slam {
 namespace {

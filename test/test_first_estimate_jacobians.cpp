@@ -13,12 +13,12 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/filter/observation_model.h"
-#include "ekf_slam/core/parameters.h"
-#include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/pipeline/pipeline_config.h"
 
 namespace ekf_slam {
 namespace {

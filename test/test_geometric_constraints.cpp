@@ -6,7 +6,7 @@
 #include <cmath>
 #include <limits>
 
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/relocalisation/geometric_constraints.h"
 #include "relocalisation_fixtures.h"
 

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/input_sequencer.h"
-#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/pipeline/input_sequencer.h"
+#include "ekf_slam/core/common/parameters.h"
 
 namespace ekf_slam {
 namespace {

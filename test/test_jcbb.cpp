@@ -13,7 +13,7 @@
 #include "association_fixtures.h"
 #include "ekf_slam/core/association/jcbb.h"
 #include "ekf_slam/core/association/nn.h"
-#include "ekf_slam/core/chi2.h"
+#include "ekf_slam/core/common/chi2.h"
 
 namespace ekf_slam {
 namespace {

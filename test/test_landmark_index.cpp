@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "ekf_slam/core/filter/ekf_slam.h"
-#include "ekf_slam/core/landmark_index.h"
+#include "ekf_slam/core/filter/landmark_index.h"
 
 namespace ekf_slam {
 namespace {

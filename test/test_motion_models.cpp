@@ -7,7 +7,7 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/filter/motion_models.h"
 
 namespace ekf_slam {

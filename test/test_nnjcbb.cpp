@@ -10,7 +10,7 @@
 
 #include "association_fixtures.h"
 #include "ekf_slam/core/association/nnjcbb.h"
-#include "ekf_slam/core/chi2.h"
+#include "ekf_slam/core/common/chi2.h"
 
 namespace ekf_slam {
 namespace {

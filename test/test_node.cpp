@@ -40,7 +40,7 @@
 #include "ekf_slam/LoadMap.h"
 #include "ekf_slam/SaveMap.h"
 #include "ekf_slam/data/victoria_park.h"
-#include "ekf_slam/ros/offline_runner.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
 #include "offline_test_options.h"
 #include "ros_test_wait.h"

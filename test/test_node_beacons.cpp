@@ -16,7 +16,7 @@
 
 #include "beacon_scans.h"
 #include "ekf_slam/LandmarkArray.h"
-#include "ekf_slam/ros/offline_runner.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
 #include "ros_test_wait.h"
 #include "test_files.h"
 

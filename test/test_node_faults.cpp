@@ -21,7 +21,7 @@
 
 #include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/data/victoria_park.h"
-#include "ekf_slam/ros/offline_runner.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
 #include "fault_bags.h"
 #include "offline_test_options.h"

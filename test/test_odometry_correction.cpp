@@ -9,12 +9,12 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/nn.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/core/filter/odometry_correction.h"
-#include "ekf_slam/core/parameters.h"
-#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 
 namespace ekf_slam {
 namespace {

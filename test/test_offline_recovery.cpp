@@ -12,8 +12,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ekf_slam/core/slam_pipeline.h"
-#include "ekf_slam/ros/offline_runner.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
 #include "ekf_slam/ros/plugin_loader.h"
 #include "simulated_bag.h"
 

@@ -19,11 +19,11 @@
 #include <nlohmann/json.hpp>
 
 #include "ekf_slam/data/victoria_park.h"
-#include "ekf_slam/ros/offline_runner.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
 #include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
-#include "ekf_slam/tools/association_problem.h"
-#include "ekf_slam/tools/yaml_parameter_source.h"
+#include "ekf_slam/app/association_problem.h"
+#include "ekf_slam/app/yaml_parameter_source.h"
 #include "offline_test_options.h"
 #include "test_files.h"
 

@@ -13,7 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ekf_slam/ros/offline_runner.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
 #include "simulated_bag.h"
 
 namespace ekf_slam {

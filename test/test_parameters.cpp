@@ -10,8 +10,8 @@
 #include "ekf_slam/core/association/jcbb.h"
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/association/nnjcbb.h"
-#include "ekf_slam/core/parameters.h"
-#include "ekf_slam/core/recording_parameter_source.h"
+#include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/common/recording_parameter_source.h"
 
 namespace ekf_slam {
 namespace {

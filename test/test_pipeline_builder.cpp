@@ -7,14 +7,14 @@
 #include <string>
 
 #include "ekf_slam/app/pipeline_builder.h"
-#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/association/rrwsc.h"
 #include "ekf_slam/core/feature_extraction/beacon_extractor.h"
 #include "ekf_slam/core/feature_extraction/tree_feature_extractor.h"
 #include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "ekf_slam/core/relocalisation/rrwsc_relocaliser.h"
-#include "ekf_slam/tools/yaml_configuration.h"
+#include "ekf_slam/app/yaml_configuration.h"
 
 namespace ekf_slam {
 namespace {

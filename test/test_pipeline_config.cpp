@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/pipeline/pipeline_config.h"
 
 namespace ekf_slam {
 namespace {

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "association_fixtures.h"
-#include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/association/data_association.h"
 #include "ekf_slam/core/feature_extraction/feature_extractor.h"
 #include "ekf_slam/core/relocalisation/relocaliser.h"
 
@@ -90,8 +90,8 @@ class RecordingAssociator : public DataAssociation {
 };
 
 TEST(PluginForwarding, AssociatorWrapperForwardsEveryHook) {
-  expectEveryVirtualForwarded("core/data_association.h", "DataAssociation", "ForwardingAssociator",
-                              9);
+  expectEveryVirtualForwarded("core/association/data_association.h", "DataAssociation",
+                              "ForwardingAssociator", 9);
   auto inner = std::make_shared<RecordingAssociator>();
   ForwardingAssociator wrapper(inner);
   wrapper.configure(MapParameterSource(std::map<std::string, std::string>{{"gate", "7"}}));

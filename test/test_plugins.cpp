@@ -8,11 +8,11 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "ekf_slam/ros/plugin_loader.h"
-#include "ekf_slam/tools/association_problem.h"
-#include "ekf_slam/tools/yaml_parameter_source.h"
+#include "ekf_slam/app/association_problem.h"
+#include "ekf_slam/app/yaml_parameter_source.h"
 
 namespace ekf_slam {
 namespace {

@@ -10,12 +10,12 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/pose2d.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/common/pose2d.h"
 #include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "ekf_slam/core/relocalisation/scan_window.h"
-#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 #include "relocalisation_fixtures.h"
 #include "test_files.h"
 

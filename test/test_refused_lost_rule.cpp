@@ -9,10 +9,10 @@
 #include <string>
 
 #include "ekf_slam/core/association/rrwsc.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/core/relocalisation/rrwsc_relocaliser.h"
-#include "ekf_slam/core/simulation/simulator.h"
-#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/evaluation/simulation/simulator.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 
 namespace ekf_slam {
 namespace {

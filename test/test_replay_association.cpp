@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "associators.h"
-#include "ekf_slam/tools/association_problem.h"
-#include "ekf_slam/tools/yaml_parameter_source.h"
+#include "ekf_slam/app/association_problem.h"
+#include "ekf_slam/app/yaml_parameter_source.h"
 
 namespace ekf_slam {
 namespace {

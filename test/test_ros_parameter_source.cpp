@@ -2,9 +2,9 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
-#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/nn.h"
-#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/common/parameters.h"
 #include "ekf_slam/ros/ros_parameter_source.h"
 
 namespace ekf_slam {

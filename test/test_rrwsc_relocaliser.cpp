@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/relocalisation/rrwsc_relocaliser.h"
 #include "rrwsc_fixtures.h"
 

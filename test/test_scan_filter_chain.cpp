@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "ekf_slam/core/feature_extraction/scan_filter_chain.h"
-#include "ekf_slam/tools/scan_filter_yaml.h"
+#include "ekf_slam/app/scan_filter_yaml.h"
 
 using namespace ekf_slam;
 

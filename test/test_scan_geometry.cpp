@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "ekf_slam/core/scan_geometry.h"
+#include "ekf_slam/core/feature_extraction/scan_geometry.h"
 
 namespace ekf_slam {
 namespace {

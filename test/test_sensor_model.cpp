@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "ekf_slam/core/sensor_model.h"
+#include "ekf_slam/core/common/sensor_model.h"
 
 namespace ekf_slam {
 namespace {

@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/common/parameters.h"
 #include "ekf_slam/core/relocalisation/fgcbb.h"
-#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 
 namespace ekf_slam {
 namespace {

@@ -1,4 +1,4 @@
-// The simulate command (ekf_slam/ros/simulation_bag.h): the tiny world's bag carries exactly what
+// The simulate command (ekf_slam/tools/simulation_bag.h): the tiny world's bag carries exactly what
 // a Simulation of the same world and seed emits, with offset stamps, truth ids, latched
 // /true_map and /tf_static; the YAML beside it parses and holds the pipeline parameters; the
 // same seed gives the same bag; the offline runner maps the world from it; bad arguments are
@@ -24,12 +24,12 @@
 
 #include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/LandmarkObservationArray.h"
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
-#include "ekf_slam/core/parameters.h"
-#include "ekf_slam/core/simulation/simulator.h"
-#include "ekf_slam/ros/offline_runner.h"
-#include "ekf_slam/ros/simulation_bag.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/evaluation/simulated_run.h"
+#include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/evaluation/simulation/simulator.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
+#include "ekf_slam/tools/simulation_bag.h"
 #include "offline_test_options.h"
 #include "test_files.h"
 

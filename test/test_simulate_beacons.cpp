@@ -12,11 +12,11 @@
 #include <sstream>
 #include <string>
 
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
-#include "ekf_slam/core/parameters.h"
-#include "ekf_slam/ros/offline_runner.h"
-#include "ekf_slam/ros/simulation_bag.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/evaluation/simulated_run.h"
+#include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/ros/offline/offline_runner.h"
+#include "ekf_slam/tools/simulation_bag.h"
 #include "offline_test_options.h"
 #include "test_files.h"
 

@@ -11,10 +11,10 @@
 
 #include <Eigen/Geometry>
 
-#include "ekf_slam/core/association/djnn.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/nn.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
-#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/evaluation/simulated_run.h"
+#include "ekf_slam/core/common/parameters.h"
 
 namespace ekf_slam {
 namespace {

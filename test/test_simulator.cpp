@@ -11,13 +11,13 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/data_association.h"
-#include "ekf_slam/core/evaluation/association_metrics.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/evaluation/scoring/association_metrics.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
-#include "ekf_slam/core/landmark_index.h"
-#include "ekf_slam/core/simulation/simulator.h"
-#include "ekf_slam/core/simulation/simulator_sensor_worlds.h"
+#include "ekf_slam/core/filter/landmark_index.h"
+#include "ekf_slam/evaluation/simulation/simulator.h"
+#include "ekf_slam/evaluation/simulation/simulator_sensor_worlds.h"
 
 namespace ekf_slam {
 namespace sim {

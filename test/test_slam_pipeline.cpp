@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/pipeline_config.h"
-#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/pipeline/pipeline_config.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 
 namespace ekf_slam {
 namespace {

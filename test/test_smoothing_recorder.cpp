@@ -7,10 +7,10 @@
 #include <set>
 #include <vector>
 
-#include "ekf_slam/core/association/djnn.h"
-#include "ekf_slam/core/evaluation/simulated_run.h"
-#include "ekf_slam/core/evaluation/trajectory_metrics.h"
-#include "ekf_slam/core/pipeline_config.h"
+#include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/evaluation/simulated_run.h"
+#include "ekf_slam/evaluation/scoring/trajectory_metrics.h"
+#include "ekf_slam/core/pipeline/pipeline_config.h"
 #include "ekf_slam/core/smoothing/smoothing_recorder.h"
 
 namespace ekf_slam {

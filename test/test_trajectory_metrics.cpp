@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "ekf_slam/core/evaluation/trajectory_metrics.h"
+#include "ekf_slam/evaluation/scoring/trajectory_metrics.h"
 
 namespace ekf_slam {
 namespace {

@@ -4,8 +4,8 @@
 #include <memory>
 #include <utility>
 
-#include "ekf_slam/core/pipeline_config.h"
-#include "ekf_slam/core/recording_parameter_source.h"
+#include "ekf_slam/core/pipeline/pipeline_config.h"
+#include "ekf_slam/core/common/recording_parameter_source.h"
 
 namespace ekf_slam {
 

@@ -21,7 +21,7 @@
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/extractor_loader.h"
 #include "ekf_slam/ros/plugin_loader.h"
-#include "ekf_slam/tools/yaml_configuration.h"
+#include "ekf_slam/app/yaml_configuration.h"
 
 namespace {
 

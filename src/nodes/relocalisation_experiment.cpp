@@ -1,3 +1,3 @@
-#include "ekf_slam/ros/relocalisation_experiment.h"
+#include "ekf_slam/tools/relocalisation_experiment.h"
 
 int main(int argc, char** argv) { return ekf_slam::relocalisationExperimentMain(argc, argv); }

@@ -13,8 +13,8 @@
 
 #include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/ros/plugin_loader.h"
-#include "ekf_slam/tools/association_problem.h"
-#include "ekf_slam/tools/yaml_configuration.h"
+#include "ekf_slam/app/association_problem.h"
+#include "ekf_slam/app/yaml_configuration.h"
 
 namespace {
 

@@ -5,7 +5,7 @@
 
 #include <tf2/exceptions.h>
 
-#include "ekf_slam/core/pose2d.h"
+#include "ekf_slam/core/common/pose2d.h"
 
 namespace ekf_slam {
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "ekf_slam/core/feature_extraction/scan_filter_chain.h"
-#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/common/parameters.h"
 
 namespace ekf_slam {
 

@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/common/parameters.h"
 
 namespace ekf_slam {
 

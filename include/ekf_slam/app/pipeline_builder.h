@@ -17,11 +17,11 @@
 
 #include "ekf_slam/app/configuration.h"
 #include "ekf_slam/app/node_config.h"
-#include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/association/data_association.h"
 #include "ekf_slam/core/feature_extraction/feature_extractor.h"
 #include "ekf_slam/core/feature_extraction/scan_filter_chain.h"
 #include "ekf_slam/core/relocalisation/relocaliser.h"
-#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 
 namespace ekf_slam {
 

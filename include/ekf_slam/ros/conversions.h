@@ -19,7 +19,7 @@
 #include "ekf_slam/AssociationStats.h"
 #include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/LandmarkObservationArray.h"
-#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 
 namespace ekf_slam {
 

@@ -6,7 +6,7 @@
 
 #include <ros/node_handle.h>
 
-#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/common/parameters.h"
 
 namespace ekf_slam {
 

@@ -7,7 +7,7 @@
 #include <functional>
 #include <limits>
 
-#include "ekf_slam/core/recording_parameter_source.h"
+#include "ekf_slam/core/common/recording_parameter_source.h"
 
 namespace ekf_slam {
 namespace {

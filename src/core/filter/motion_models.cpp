@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
 

@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
 

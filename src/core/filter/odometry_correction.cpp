@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/common/parameters.h"
 
 namespace ekf_slam {
 

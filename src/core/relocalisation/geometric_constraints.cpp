@@ -8,7 +8,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
 

@@ -10,9 +10,9 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/chi2.h"
-#include "ekf_slam/core/pose2d.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/common/chi2.h"
+#include "ekf_slam/core/common/pose2d.h"
 
 namespace ekf_slam {
 

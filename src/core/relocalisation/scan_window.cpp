@@ -1,6 +1,6 @@
 #include "ekf_slam/core/relocalisation/scan_window.h"
 
-#include "ekf_slam/core/pose2d.h"
+#include "ekf_slam/core/common/pose2d.h"
 
 namespace ekf_slam {
 

@@ -10,8 +10,8 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
-#include "ekf_slam/core/angles.h"
-#include "ekf_slam/core/pose2d.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/common/pose2d.h"
 
 namespace ekf_slam {
 

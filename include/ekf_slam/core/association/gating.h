@@ -8,7 +8,7 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/association/data_association.h"
 
 namespace ekf_slam {
 

@@ -10,7 +10,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/association/gating.h"
-#include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/association/data_association.h"
 
 namespace ekf_slam {
 

@@ -10,8 +10,8 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/association/gating.h"
-#include "ekf_slam/core/chi2.h"
-#include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/common/chi2.h"
+#include "ekf_slam/core/association/data_association.h"
 
 namespace ekf_slam {
 

@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "ekf_slam/core/data_association.h"
+#include "ekf_slam/core/association/data_association.h"
 
 namespace ekf_slam {
 

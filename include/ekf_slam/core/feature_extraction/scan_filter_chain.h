@@ -20,7 +20,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/feature_extraction/feature_extractor.h"
-#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/common/parameters.h"
 
 namespace ekf_slam {
 

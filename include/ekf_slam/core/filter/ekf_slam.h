@@ -16,7 +16,7 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/angles.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/filter/odometry_correction.h"

@@ -75,7 +75,7 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/chi2.h"
+#include "ekf_slam/core/common/chi2.h"
 #include "ekf_slam/core/relocalisation/geometric_constraints.h"
 #include "ekf_slam/core/relocalisation/relocaliser.h"
 

@@ -13,7 +13,7 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/pose2d.h"
+#include "ekf_slam/core/common/pose2d.h"
 #include "ekf_slam/core/relocalisation/relocaliser.h"
 
 namespace ekf_slam {

@@ -17,9 +17,9 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/data_association.h"  // Observation
+#include "ekf_slam/core/association/data_association.h"  // Observation
 #include "ekf_slam/core/filter/ekf_slam.h"   // LandmarkId
-#include "ekf_slam/core/parameters.h"
+#include "ekf_slam/core/common/parameters.h"
 #include "ekf_slam/core/relocalisation/scan_window.h"
 
 namespace ekf_slam {

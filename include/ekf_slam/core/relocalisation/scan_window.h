@@ -11,7 +11,7 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/data_association.h"  // Observation
+#include "ekf_slam/core/association/data_association.h"  // Observation
 
 namespace ekf_slam {
 

@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/slam_pipeline.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 #include "ekf_slam/core/smoothing/batch_smoother.h"
 
 namespace ekf_slam {

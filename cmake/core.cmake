@@ -1,0 +1,59 @@
+# ROS-free estimator (Eigen only): include/ekf_slam/core, src/core.
+add_library(ekf_slam_core
+  # common: angles, poses, chi2, parameters, the sensor's region, a coverage grid
+  src/core/common/chi2.cpp
+  src/core/common/parameters.cpp
+  src/core/common/recording_parameter_source.cpp
+  src/core/common/sensor_model.cpp
+  src/core/common/coverage_grid.cpp
+  # filter: the EKF (full and compressed), its models and the landmarks' spatial index
+  src/core/filter/observation_model.cpp
+  src/core/filter/motion_models.cpp
+  src/core/filter/odometry_correction.cpp
+  src/core/filter/symmetric_rank_update.cpp
+  src/core/filter/ekf_slam.cpp
+  src/core/filter/compressed_ekf.cpp
+  src/core/filter/landmark_index.cpp
+  # feature extraction: scan filters, extractors
+  src/core/feature_extraction/scan_geometry.cpp
+  src/core/feature_extraction/scan_filter_chain.cpp
+  src/core/feature_extraction/feature_extractor.cpp
+  src/core/feature_extraction/tree_extractor.cpp
+  src/core/feature_extraction/tree_feature_extractor.cpp
+  src/core/feature_extraction/beacon_extractor.cpp
+  # association: the interface and one file per algorithm
+  src/core/association/association_context.cpp
+  src/core/association/gating.cpp
+  src/core/association/nn.cpp
+  src/core/association/jcbb.cpp
+  src/core/association/nnjcbb.cpp
+  src/core/association/hungarian.cpp
+  src/core/association/joint_ml.cpp
+  src/core/association/rrwsc.cpp
+  src/core/association/djnn/djnn.cpp
+  src/core/association/djnn/djnn_spacing.cpp
+  src/core/association/djnn/djnn_coverage.cpp
+  src/core/association/djnn/djnn_confirm.cpp
+  src/core/association/djnn/djnn_held_window.cpp
+  src/core/association/djnn/held_window.cpp
+  # graph matching (RRW&SC)
+  src/core/graph_matching/shape_context.cpp
+  src/core/graph_matching/reweighted_random_walks.cpp
+  src/core/graph_matching/rrwsc_matcher.cpp
+  # relocalisation: the interface, FGCBB / GCBB, RRW&SC
+  src/core/relocalisation/relocaliser.cpp
+  src/core/relocalisation/scan_window.cpp
+  src/core/relocalisation/geometric_constraints.cpp
+  src/core/relocalisation/geometric_constraint_bb.cpp
+  src/core/relocalisation/fgcbb.cpp
+  src/core/relocalisation/gcbb.cpp
+  src/core/relocalisation/rrwsc_relocaliser.cpp
+  # pipeline: a scan from input to update, recovery, map files
+  src/core/pipeline/pipeline_config.cpp
+  src/core/pipeline/input_sequencer.cpp
+  src/core/pipeline/slam_pipeline.cpp
+  # smoothing: the batch smoother of a finished run
+  src/core/smoothing/batch_smoother.cpp
+  src/core/smoothing/smoothing_recorder.cpp)
+target_include_directories(ekf_slam_core PUBLIC include)
+target_link_libraries(ekf_slam_core PUBLIC Eigen3::Eigen)

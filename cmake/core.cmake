@@ -1,12 +1,14 @@
 # ROS-free estimator (Eigen only): include/ekf_slam/core, src/core.
 add_library(ekf_slam_core
-  # common: angles, poses, chi2, parameters, the sensor's region, a coverage grid
+  # common: angles, poses, chi2, parameters, the sensor's region, a coverage grid, assignment
   src/core/common/chi2.cpp
   src/core/common/parameters.cpp
   src/core/common/recording_parameter_source.cpp
   src/core/common/sensor_model.cpp
   src/core/common/coverage_grid.cpp
-  # filter: the EKF (full and compressed), its models and the landmarks' spatial index
+  src/core/common/assignment_solver.cpp
+  # filter: observations, the EKF (full and compressed), its models, the landmarks' spatial index,
+  # scans carried by the odometry
   src/core/filter/observation_model.cpp
   src/core/filter/motion_models.cpp
   src/core/filter/odometry_correction.cpp
@@ -14,6 +16,7 @@ add_library(ekf_slam_core
   src/core/filter/ekf_slam.cpp
   src/core/filter/compressed_ekf.cpp
   src/core/filter/landmark_index.cpp
+  src/core/filter/scan_window.cpp
   # feature extraction: scan filters, extractors
   src/core/feature_extraction/scan_geometry.cpp
   src/core/feature_extraction/scan_filter_chain.cpp
@@ -42,15 +45,22 @@ add_library(ekf_slam_core
   src/core/graph_matching/rrwsc_matcher.cpp
   # relocalisation: the interface, FGCBB / GCBB, RRW&SC
   src/core/relocalisation/relocaliser.cpp
-  src/core/relocalisation/scan_window.cpp
+  src/core/filter/scan_window.cpp
   src/core/relocalisation/geometric_constraints.cpp
   src/core/relocalisation/geometric_constraint_bb.cpp
   src/core/relocalisation/fgcbb.cpp
   src/core/relocalisation/gcbb.cpp
   src/core/relocalisation/rrwsc_relocaliser.cpp
-  # pipeline: a scan from input to update, recovery, map files
+  # pipeline: a scan from input to update, lost-robot recovery, map files
   src/core/pipeline/pipeline_config.cpp
   src/core/pipeline/input_sequencer.cpp
+  src/core/pipeline/motion_predictor.cpp
+  src/core/pipeline/observation_builder.cpp
+  src/core/pipeline/landmark_book.cpp
+  src/core/pipeline/map_updater.cpp
+  src/core/pipeline/lost_monitor.cpp
+  src/core/pipeline/recovery.cpp
+  src/core/pipeline/map_file.cpp
   src/core/pipeline/slam_pipeline.cpp
   # smoothing: the batch smoother of a finished run
   src/core/smoothing/batch_smoother.cpp

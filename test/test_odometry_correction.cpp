@@ -11,10 +11,10 @@
 
 #include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/nn.h"
-#include "ekf_slam/evaluation/simulated_run.h"
-#include "ekf_slam/core/filter/odometry_correction.h"
 #include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/filter/odometry_correction.h"
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 
 namespace ekf_slam {
 namespace {
@@ -127,7 +127,7 @@ TEST(OdometryCorrection, JacobianMatchesFiniteDifferences) {
 // Pipeline with zero process noise and a pose known exactly: after pure prediction the
 // pose/correction cross-covariance is Fc Sigma_c, so Fc can be read off and compared with the
 // finite difference of the predicted pose w.r.t. the initial correction estimate.
-SlamPipeline predictOnly(const std::string& mode, const Eigen::Vector2d& initial) {
+std::unique_ptr<SlamPipeline> predictOnly(const std::string& mode, const Eigen::Vector2d& initial) {
   PipelineConfig config;
   config.twist.sigma_v = config.twist.sigma_v_per_v = 0.0;
   config.twist.sigma_w = config.twist.sigma_w_per_v = 0.0;
@@ -140,23 +140,24 @@ SlamPipeline predictOnly(const std::string& mode, const Eigen::Vector2d& initial
     config.correction.speed_scale_initial = initial(0);
     config.correction.yaw_bias_initial = initial(1);
   }
-  SlamPipeline p(config, std::make_shared<Blind>());
+  auto p = std::make_unique<SlamPipeline>(config, std::make_shared<Blind>());
   // Irregular stamps, changing twists, several messages composed into one prediction.
   const double stamps[] = {0.0, 0.04, 0.09, 0.1, 0.17, 0.25, 0.31};
   for (int k = 0; k < 7; ++k) {
     OdometryInput o;
     o.stamp = stamps[k];
     o.twist = Eigen::Vector2d(2.0 + 0.3 * k, 0.4 * std::sin(1.0 + k));
-    p.addOdometry(o);
+    p->addOdometry(o);
   }
-  p.processObservations(0.38, {});
+  p->processObservations(0.38, {});
   return p;
 }
 
 TEST(OdometryCorrection, AugmentedPredictionJacobianMatchesFiniteDifferences) {
   for (const std::string& mode : kModes) {
     const Eigen::Vector2d c0(1.05, mode == "wheel_factors" ? 1.05 : 0.02);
-    const SlamPipeline p = predictOnly(mode, c0);
+    const std::unique_ptr<SlamPipeline> pipeline = predictOnly(mode, c0);
+    const SlamPipeline& p = *pipeline;
     const EkfSlam& ekf = p.ekf();
     const int k = ekf.correctionDim();
     ASSERT_EQ(k, mode == "speed_scale" ? 1 : 2);
@@ -169,9 +170,9 @@ TEST(OdometryCorrection, AugmentedPredictionJacobianMatchesFiniteDifferences) {
       if (mode == "wheel_factors") {
         if (i == 1) continue;
         const double h = 1e-6;
-        const Eigen::Vector3d num =
-            (predictOnly(mode, {c0(0) + h, 0}).pose() - predictOnly(mode, {c0(0) - h, 0}).pose()) /
-            (2 * h);
+        const Eigen::Vector3d num = (predictOnly(mode, {c0(0) + h, 0})->pose() -
+                                     predictOnly(mode, {c0(0) - h, 0})->pose()) /
+                                    (2 * h);
         const Eigen::Vector3d sum = (Pvc.col(0) + Pvc.col(1)) / (sigma(0) * sigma(0));
         EXPECT_LT((sum - num).cwiseAbs().maxCoeff(), 1e-6) << mode;
         continue;
@@ -181,7 +182,7 @@ TEST(OdometryCorrection, AugmentedPredictionJacobianMatchesFiniteDifferences) {
       cp(i) += h;
       cm(i) -= h;
       const Eigen::Vector3d num =
-          (predictOnly(mode, cp).pose() - predictOnly(mode, cm).pose()) / (2 * h);
+          (predictOnly(mode, cp)->pose() - predictOnly(mode, cm)->pose()) / (2 * h);
       EXPECT_LT((Fc - num).cwiseAbs().maxCoeff(), 1e-6) << mode << " state " << i;
       EXPECT_GT(Fc.norm(), 1e-3) << mode;  // not vacuous
     }

@@ -14,7 +14,7 @@
 #include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/common/pose2d.h"
 #include "ekf_slam/core/relocalisation/fgcbb.h"
-#include "ekf_slam/core/relocalisation/scan_window.h"
+#include "ekf_slam/core/filter/scan_window.h"
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
 #include "relocalisation_fixtures.h"
 #include "test_files.h"

@@ -1,5 +1,7 @@
 // AssociationContext: per-scan cache of predicted measurements and the innovation algebra every
 // associator shares (individual S_ij, M_ij, and the joint covariance through pose and map).
+#include "ekf_slam/core/association/association_context.h"
+
 #include "ekf_slam/core/association/data_association.h"
 
 #include <algorithm>

@@ -15,21 +15,12 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/filter/ekf_slam.h"
-#include "ekf_slam/core/filter/observation_model.h"
-#include "ekf_slam/core/filter/landmark_index.h"
+#include "ekf_slam/core/association/association_context.h"
 #include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/filter/ekf_slam.h"
+#include "ekf_slam/core/filter/observation.h"
 
 namespace ekf_slam {
-
-/// One observation of the current scan.
-struct Observation {
-  Eigen::Vector2d z = Eigen::Vector2d::Zero();      ///< (range, bearing) or (x, y), sensor frame
-  Eigen::Matrix2d R = Eigen::Matrix2d::Identity();  ///< measurement noise covariance, same units
-  MeasurementKind kind = MeasurementKind::kRangeBearing;
-  /// Optional descriptor, e.g. the trunk diameter [m]; NaN when unknown.
-  double descriptor = std::numeric_limits<double>::quiet_NaN();
-};
 
 /// What happens to one observation.
 enum class Decision : std::uint8_t {
@@ -66,82 +57,6 @@ struct AssociationResult {
 struct TentativeFeature {
   Eigen::Vector2d position;
   int evidence;
-};
-
-/// Everything an associator sees for one scan, read-only, with cached helpers. Landmarks are
-/// referred to by their state-order index (EkfSlam::landmark(index)) while associating; results
-/// are reported by id (landmarkId(index)).
-class AssociationContext {
- public:
-  /// Predicted observation of one landmark and its Jacobians (cached per landmark and kind).
-  struct Prediction {
-    Eigen::Vector2d z_hat;
-    Matrix23d H_pose;
-    Eigen::Matrix2d H_landmark;
-    /// Second-order terms' covariance, added to S (EkfSlam::secondOrderTerms; zero when off).
-    Eigen::Matrix2d extra = Eigen::Matrix2d::Zero();
-  };
-  /// Individual compatibility of observation i with landmark j.
-  struct Individual {
-    Eigen::Vector2d v;  ///< innovation z_i - h_j (bearing wrapped)
-    Eigen::Matrix2d S;  ///< H P H^T + R_i
-    Eigen::Matrix2d S_inv;
-    double mahalanobis;  ///< v^T S^-1 v  (M_ij)
-    double log_det_S;    ///< ln |S_ij|
-  };
-
-  AssociationContext(const EkfSlam& ekf, const RangeBearingModel& model, const LandmarkIndex& index,
-                     const std::vector<Observation>& observations, double stamp);
-
-  const EkfSlam& ekf() const { return ekf_; }
-  const RangeBearingModel& model() const { return model_; }
-  const std::vector<Observation>& observations() const { return obs_; }
-  std::size_t numObservations() const { return obs_.size(); }
-  double stamp() const { return stamp_; }
-  Eigen::Vector3d robotPose() const { return ekf_.pose(); }
-  Eigen::Vector3d sensorPose() const { return model_.sensorPose(ekf_.pose()); }
-  LandmarkId landmarkId(int index) const { return ekf_.landmarkIds()[index]; }
-  std::size_t numLandmarks() const { return ekf_.numLandmarks(); }
-  /// The spatial index (e.g. for a context over other observations of the same scan).
-  const LandmarkIndex& landmarkIndex() const { return index_; }
-
-  /// State-order indices of the landmarks within `radius` of `center` (spatial index).
-  std::vector<int> landmarksNear(const Eigen::Vector2d& center, double radius) const;
-  /// Landmarks that can be paired with some observation: within the farthest observation's
-  /// range plus `margin` of the sensor. The usual candidate set of the gated algorithms.
-  std::vector<int> candidateLandmarks(double margin) const;
-
-  const Prediction& prediction(int landmark,
-                               MeasurementKind kind = MeasurementKind::kRangeBearing) const;
-  /// Computes M_ij and friends; counts one candidate evaluation.
-  Individual individual(int obs, int landmark) const;
-  /// Where an observation would put a landmark (inverse model at the current pose).
-  Eigen::Vector2d observedPosition(int obs) const;
-
-  /// Cross-covariance block cov(v_a, v_b) of the innovations of pairs (obs_a, lm_a) and
-  /// (obs_b, lm_b), through the full covariance (pose and map correlations); includes R when the
-  /// two pairs share the observation.
-  Eigen::Matrix2d innovationCovariance(int obs_a, int lm_a, int obs_b, int lm_b) const;
-  /// Joint innovation and its covariance for a hypothesis (pairs of obs, landmark index).
-  void jointInnovation(const std::vector<std::pair<int, int>>& pairs, Eigen::VectorXd* v,
-                       Eigen::MatrixXd* S) const;
-  /// Joint Mahalanobis distance D^2 of a hypothesis (0 for an empty one).
-  double jointMahalanobis(const std::vector<std::pair<int, int>>& pairs) const;
-
-  /// Number of individual() calls so far (tests check that cost does not grow with the map).
-  std::size_t evaluations() const { return evaluations_; }
-
- private:
-  const EkfSlam& ekf_;
-  const RangeBearingModel& model_;
-  const LandmarkIndex& index_;
-  const std::vector<Observation>& obs_;
-  double stamp_;
-  // Keyed by landmark index and kind (2 index + kind) and filled on first use: a scan touches a
-  // handful of landmarks, so the cache must not cost O(map) to set up. Node-based, so returned
-  // references stay valid.
-  mutable std::unordered_map<int, Prediction> predictions_;
-  mutable std::size_t evaluations_ = 0;
 };
 
 /// The plugin interface. pluginlib needs a default constructor, so parameters come in configure().

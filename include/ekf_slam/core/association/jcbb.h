@@ -9,9 +9,9 @@
 
 #include <Eigen/Core>
 
+#include "ekf_slam/core/association/data_association.h"
 #include "ekf_slam/core/association/gating.h"
 #include "ekf_slam/core/common/chi2.h"
-#include "ekf_slam/core/association/data_association.h"
 
 namespace ekf_slam {
 

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/association/gating.h"
 #include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/core/association/gating.h"
 
 namespace ekf_slam {
 

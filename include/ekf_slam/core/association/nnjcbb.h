@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "ekf_slam/core/association/data_association.h"
 #include "ekf_slam/core/association/gating.h"
 #include "ekf_slam/core/association/jcbb.h"
-#include "ekf_slam/core/association/data_association.h"
 
 namespace ekf_slam {
 

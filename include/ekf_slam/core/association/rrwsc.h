@@ -11,9 +11,9 @@
 #include <unordered_map>
 #include <vector>
 
+#include "ekf_slam/core/association/data_association.h"
 #include "ekf_slam/core/association/gating.h"
 #include "ekf_slam/core/association/hungarian.h"
-#include "ekf_slam/core/association/data_association.h"
 #include "ekf_slam/core/graph_matching/rrwsc_matcher.h"
 
 namespace ekf_slam {

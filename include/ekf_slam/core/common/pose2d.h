@@ -30,6 +30,23 @@ inline Eigen::Vector3d inversePose(const Eigen::Vector3d& a) {
   return {t.x(), t.y(), -a.z()};
 }
 
+/// Covariance of anchor o u, u the motion an estimate with heading `estimate_yaw` integrated (Q its
+/// noise, in that estimate's map frame): d/d anchor = [I, S R u_xy; 0 1] (S the 90 degree turn),
+/// and Q turned from the estimate's frame into the anchor's. The odometry since a scan, a held
+/// relocalisation fix moved to now and a fix carried back to a tracked scan are all this.
+inline Eigen::Matrix3d carriedCovariance(const Eigen::Vector3d& anchor,
+                                         const Eigen::Matrix3d& anchor_cov,
+                                         const Eigen::Vector3d& u, double estimate_yaw,
+                                         const Eigen::Matrix3d& Q) {
+  const Eigen::Vector2d lever = rotation2d(anchor.z()) * u.head<2>();
+  Eigen::Matrix3d Ja = Eigen::Matrix3d::Identity();
+  Ja(0, 2) = -lever.y();
+  Ja(1, 2) = lever.x();
+  Eigen::Matrix3d Jr = Eigen::Matrix3d::Identity();
+  Jr.topLeftCorner<2, 2>() = rotation2d(anchor.z() - estimate_yaw);
+  return Ja * anchor_cov * Ja.transpose() + Jr * Q * Jr.transpose();
+}
+
 /// A planar rotation by `yaw` as a unit quaternion (x, y, z, w) = (0, 0, sin(yaw/2), cos(yaw/2)).
 inline Eigen::Vector4d yawQuaternion(double yaw) {
   return {0.0, 0.0, std::sin(0.5 * yaw), std::cos(0.5 * yaw)};

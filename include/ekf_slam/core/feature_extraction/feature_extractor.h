@@ -13,8 +13,8 @@
 #include <utility>
 #include <vector>
 
-#include "ekf_slam/core/association/data_association.h"  // Observation
 #include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/filter/observation.h"
 
 namespace ekf_slam {
 

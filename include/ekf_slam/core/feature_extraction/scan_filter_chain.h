@@ -19,8 +19,8 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/feature_extraction/feature_extractor.h"
 #include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/feature_extraction/feature_extractor.h"
 
 namespace ekf_slam {
 

@@ -10,11 +10,11 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/association/hungarian.h"  // AssignmentSolver
-#include "ekf_slam/core/association/data_association.h"       // Observation
+#include "ekf_slam/core/common/assignment_solver.h"
+#include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/filter/observation.h"
 #include "ekf_slam/core/graph_matching/reweighted_random_walks.h"
 #include "ekf_slam/core/graph_matching/shape_context.h"
-#include "ekf_slam/core/common/parameters.h"
 
 namespace ekf_slam {
 

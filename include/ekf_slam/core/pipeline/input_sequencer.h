@@ -44,7 +44,8 @@
 #include <unordered_map>
 #include <utility>
 
-#include "ekf_slam/core/pipeline/slam_pipeline.h"
+#include "ekf_slam/core/pipeline/odometry_input.h"
+#include "ekf_slam/core/pipeline/pipeline_config.h"
 
 namespace ekf_slam {
 

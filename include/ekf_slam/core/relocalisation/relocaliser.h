@@ -17,10 +17,10 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/association/data_association.h"  // Observation
-#include "ekf_slam/core/filter/ekf_slam.h"   // LandmarkId
 #include "ekf_slam/core/common/parameters.h"
-#include "ekf_slam/core/relocalisation/scan_window.h"
+#include "ekf_slam/core/filter/ekf_slam.h"  // LandmarkId
+#include "ekf_slam/core/filter/observation.h"
+#include "ekf_slam/core/filter/scan_window.h"
 
 namespace ekf_slam {
 

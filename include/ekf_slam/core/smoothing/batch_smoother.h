@@ -15,7 +15,7 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/core/filter/ekf_slam.h"  // LandmarkId
 #include "ekf_slam/core/filter/observation_model.h"
 
 namespace ekf_slam {

@@ -13,7 +13,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/association/data_association.h"
-#include "ekf_slam/core/relocalisation/scan_window.h"
+#include "ekf_slam/core/filter/scan_window.h"
 
 namespace ekf_slam {
 

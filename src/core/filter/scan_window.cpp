@@ -1,4 +1,4 @@
-#include "ekf_slam/core/relocalisation/scan_window.h"
+#include "ekf_slam/core/filter/scan_window.h"
 
 #include "ekf_slam/core/common/pose2d.h"
 

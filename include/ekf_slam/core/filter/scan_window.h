@@ -11,7 +11,7 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/association/data_association.h"  // Observation
+#include "ekf_slam/core/filter/observation.h"
 
 namespace ekf_slam {
 

@@ -1,0 +1,159 @@
+#include "ekf_slam/core/pipeline/lost_monitor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "ekf_slam/core/common/angles.h"
+
+namespace ekf_slam {
+
+LostMonitor::LostMonitor(const PipelineConfig& config, const EkfSlam& filter,
+                         const LandmarkIndex& index, const RangeBearingModel& model,
+                         const LandmarkBook& book)
+    : config_(config),
+      filter_(filter),
+      index_(index),
+      model_(model),
+      book_(book),
+      nis_chi2_(config.lost_nis_probability, 64) {}
+
+void LostMonitor::restart() {
+  unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
+  share_window_.clear();
+}
+
+int LostMonitor::landmarksInView(std::uint32_t scans) const {
+  const Eigen::Vector3d sensor = model_.sensorPose(filter_.pose());
+  const double range =
+      config_.lost_view_range > 0.0 ? config_.lost_view_range : config_.max_observation_range;
+  std::vector<int> near;
+  index_.query(filter_, sensor.head<2>(), range, &near);
+  int expected = 0;
+  for (const int k : near) {
+    // Recent landmarks say nothing about being lost.
+    if (book_.recent(filter_.landmarkIds()[k], scans)) continue;
+    const Eigen::Vector2d d = filter_.landmark(k) - sensor.head<2>();
+    expected += std::abs(wrapAngle(std::atan2(d.y(), d.x()) - sensor.z())) <=
+                0.5 * config_.lost_field_of_view;
+  }
+  return expected;
+}
+
+LostMonitor::Verdict LostMonitor::afterUpdate(ScanReport* report) {
+  const AssociationResult& a = report->association;
+  const int n = static_cast<int>(report->observations.size());
+  const std::uint32_t scans = report->scan + 1;
+  // Rule 1: observations, none paired with an established landmark, for several scans. Pairings
+  // with recent landmarks do not count: a kidnapped filter maps the place it is in anew, and
+  // pairs with what it has just mapped.
+  int established = 0;
+  for (std::size_t i = 0; i < a.decision.size(); ++i)
+    established += a.decision[i] == Decision::kPaired && !book_.recent(a.landmark[i], scans);
+  // lost_min_paired_share > 0: a few chance pairings among many landmarks in view still count
+  // as unpaired.
+  const bool share_rule = config_.lost_min_paired_share > 0.0;
+  if (share_rule) report->landmarks_expected = landmarksInView(scans);
+  if (established > 0 &&
+      established >= config_.lost_min_paired_share * report->landmarks_expected) {
+    unpaired_streak_ = 0;
+  } else if (n >= config_.lost_min_observations) {
+    ++unpaired_streak_;
+  }
+  // Rule 2: the paired observations persistently disagree with the filter.
+  const int paired =
+      static_cast<int>(std::count(a.decision.begin(), a.decision.end(), Decision::kPaired));
+  if (paired > 0 && report->update_ok) {
+    nis_streak_ = report->nis > nis_chi2_(report->nis_dof) ? nis_streak_ + 1 : 0;
+  }
+  const bool unpaired =
+      config_.lost_unpaired_scans > 0 && unpaired_streak_ >= config_.lost_unpaired_scans;
+  if (unpaired && !share_rule) report->landmarks_expected = landmarksInView(scans);
+  const bool rule1 = unpaired && report->landmarks_expected >= config_.lost_min_expected;
+  const bool rule2 = config_.lost_nis_scans > 0 && nis_streak_ >= config_.lost_nis_scans;
+  // Rule 4: over the last lost_share_window scans with established landmarks in view, too few
+  // observations explained by them. Chance pairings (one or two a scan among many landmarks in
+  // view) restart rule 1's count but hardly raise this share (docs/relocalisation.md).
+  bool rule4 = false;
+  if (config_.lost_share_window > 0 && n >= config_.lost_min_observations) {
+    if (!share_rule && !unpaired) report->landmarks_expected = landmarksInView(scans);
+    if (report->landmarks_expected >= config_.lost_min_expected) {
+      share_window_.emplace_back(established, n);
+      if (share_window_.size() > static_cast<std::size_t>(config_.lost_share_window))
+        share_window_.pop_front();
+      int window_established = 0, window_observations = 0;
+      for (const auto& [e, o] : share_window_) {
+        window_established += e;
+        window_observations += o;
+      }
+      rule4 = share_window_.size() == static_cast<std::size_t>(config_.lost_share_window) &&
+              window_established < config_.lost_established_share * window_observations;
+      if (rule4) {
+        report->lost_reason = std::to_string(window_established) + " of " +
+                              std::to_string(window_observations) +
+                              " observations paired with established landmarks in " +
+                              std::to_string(config_.lost_share_window) + " scans";
+      }
+    }
+  }
+  // Rule 4's probe: a scan with established landmarks in view of which it explains under
+  // lost_established_share by them (rule 4's share, one scan), with too few scans or too few in
+  // view for a rule to call it lost. A kidnap shows at once as such a scan (Victoria Park: one
+  // chance pairing of 8-10 observations), yet so does a tracking filter among trees the laser
+  // misses, so the relocaliser decides, as for rule 1 with few in view.
+  bool share_probe = false;
+  if (config_.lost_share_probe && !rule1 && !rule2 && !rule4 &&
+      n >= std::max(config_.lost_min_observations, 1) &&
+      established < config_.lost_established_share * n) {
+    if (config_.lost_share_window <= 0) report->landmarks_expected = landmarksInView(scans);
+    share_probe = report->landmarks_expected > 0;
+  }
+  if (rule1 || rule2 || rule4) {
+    if (rule1 || rule2) {
+      report->lost_reason =
+          rule1 ? (share_rule ? "under " + std::to_string(config_.lost_min_paired_share) +
+                                    " of the established landmarks in view paired for "
+                              : std::string("no established landmark paired for ")) +
+                      std::to_string(unpaired_streak_) + " scans, " +
+                      std::to_string(report->landmarks_expected) + " in view"
+                : "NIS above chi2(2k, " + std::to_string(config_.lost_nis_probability) + ") for " +
+                      std::to_string(nis_streak_) + " scans";
+    }
+    return Verdict::kLost;
+  }
+  // Nothing established paired and nothing established in view: new ground, or a kidnap into a
+  // place the filter takes for new ground. The relocaliser tells them apart: a confident pose in
+  // the established map that the filter's estimate does not cover is a kidnap.
+  return unpaired || share_probe ? Verdict::kProbe : Verdict::kTracking;
+}
+
+LostMonitor::Refusal LostMonitor::refused(const ScanReport& report, std::string* reason) {
+  if (config_.lost_rejected_scans <= 0) return Refusal::kNone;
+  const AssociationResult& a = report.association;
+  const int paired =
+      static_cast<int>(std::count(a.decision.begin(), a.decision.end(), Decision::kPaired));
+  // Rule 3: the associator recognised these landmarks without the pose, and the filter refused
+  // them, more than it paired. Seen at the first scan after a kidnap, while rule 1 waits for
+  // several scans (and chance pairings restart it).
+  if (a.gate_refused < std::max(config_.lost_min_observations, 1) || a.gate_refused <= paired) {
+    refused_streak_ = 0;
+    return Refusal::kNone;
+  }
+  // Its unrecognised observations would start landmarks at the wrong pose: a second copy of the
+  // map that the filter would then track.
+  if (++refused_streak_ < config_.lost_rejected_scans) return Refusal::kSuppress;
+  *reason = std::to_string(a.gate_refused) +
+            " observations recognised but refused by the filter gate (" + std::to_string(paired) +
+            " paired) for " + std::to_string(refused_streak_) + " scans";
+  return Refusal::kProbe;
+}
+
+void LostMonitor::suppressNew(AssociationResult* association, PipelineCounters* counters) {
+  for (Decision& d : association->decision) {
+    if (d != Decision::kNew) continue;
+    d = Decision::kRejected;
+    ++counters->suppressed_new;
+  }
+}
+
+}  // namespace ekf_slam

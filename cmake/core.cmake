@@ -33,12 +33,20 @@ add_library(ekf_slam_core
   src/core/association/hungarian.cpp
   src/core/association/joint_ml.cpp
   src/core/association/rrwsc.cpp
+  # DJNN: the paper's algorithm, then each extension, then the plugin that joins them
+  src/core/association/djnn/tentative_set.cpp
+  src/core/association/djnn/djnn_paper.cpp
+  src/core/association/djnn/ambiguity_gate.cpp
+  src/core/association/djnn/static_test.cpp
+  src/core/association/djnn/bias_test.cpp
+  src/core/association/djnn/follow_pose.cpp
+  src/core/association/djnn/shift_test.cpp
+  src/core/association/djnn/density_test.cpp
+  src/core/association/djnn/landmark_spacing.cpp
+  src/core/association/djnn/remembered_features.cpp
+  src/core/association/djnn/held_confirmation.cpp
+  src/core/association/djnn/joint_decision.cpp
   src/core/association/djnn/djnn.cpp
-  src/core/association/djnn/djnn_spacing.cpp
-  src/core/association/djnn/djnn_coverage.cpp
-  src/core/association/djnn/djnn_confirm.cpp
-  src/core/association/djnn/djnn_held_window.cpp
-  src/core/association/djnn/held_window.cpp
   # graph matching (RRW&SC)
   src/core/graph_matching/shape_context.cpp
   src/core/graph_matching/reweighted_random_walks.cpp

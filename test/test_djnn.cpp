@@ -10,9 +10,9 @@
 
 #include "association_fixtures.h"
 #include "djnn_fixtures.h"
-#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/nn.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/common/chi2.h"
 
 namespace ekf_slam {
@@ -595,30 +595,30 @@ TEST(DJNN, ParametersAreValidatedAndNamed) {
   EXPECT_TRUE(fails({{"bias_window", "0.5"}}, "bias_window"));
   EXPECT_TRUE(fails({{"bias_min_pairings", "0"}}, "bias_min_pairings"));
   const DJNN d = makeDjnn({{"sensor_range", "25"}, {"range_margin", "2"}});
-  EXPECT_EQ(d.params().sensor.max_range, 25.0);
-  EXPECT_EQ(d.params().range_margin, 2.0);
-  EXPECT_EQ(d.params().admit_evidence, 2);
-  EXPECT_NEAR(d.params().sensor.field_of_view, M_PI, 1e-12);
+  EXPECT_EQ(d.params().paper.sensor.max_range, 25.0);
+  EXPECT_EQ(d.params().paper.range_margin, 2.0);
+  EXPECT_EQ(d.params().paper.admit_evidence, 2);
+  EXPECT_NEAR(d.params().paper.sensor.field_of_view, M_PI, 1e-12);
 }
 
 TEST(DJNN, DefaultsAreTheDocumentedOnes) {
   const DJNN d;  // docs/djnn.md, "Parameters"
-  EXPECT_EQ(d.params().individual_probability, 0.999);
-  EXPECT_EQ(d.params().ambiguity_probability, 0.999);
-  EXPECT_EQ(d.params().admit_evidence, 7);
-  EXPECT_TRUE(d.params().static_test);
-  EXPECT_EQ(d.params().static_probability, 0.9);
-  EXPECT_EQ(d.params().static_jitter, 0.0);
-  EXPECT_TRUE(d.params().bias_test);
-  EXPECT_EQ(d.params().bias_probability, 0.999);
-  EXPECT_EQ(d.params().bias_window, 5.0);
-  EXPECT_EQ(d.params().bias_min_pairings, 3);
+  EXPECT_EQ(d.params().paper.individual_probability, 0.999);
+  EXPECT_EQ(d.params().ambiguity.ambiguity_probability, 0.999);
+  EXPECT_EQ(d.params().paper.admit_evidence, 7);
+  EXPECT_TRUE(d.params().static_test.static_test);
+  EXPECT_EQ(d.params().static_test.static_probability, 0.9);
+  EXPECT_EQ(d.params().static_test.static_jitter, 0.0);
+  EXPECT_TRUE(d.params().bias.bias_test);
+  EXPECT_EQ(d.params().bias.bias_probability, 0.999);
+  EXPECT_EQ(d.params().bias.bias_window, 5.0);
+  EXPECT_EQ(d.params().bias.bias_min_pairings, 3);
   // The sensor model: the paper's half disc of 30 m, every landmark in it seen, no clutter.
-  EXPECT_EQ(d.params().sensor.max_range, 30.0);
-  EXPECT_EQ(d.params().sensor.min_range, 0.0);
-  EXPECT_TRUE(d.params().sensor.polygon.empty());
-  EXPECT_EQ(d.params().sensor.detection_probability, 1.0);
-  EXPECT_EQ(d.params().sensor.clutter_density, 0.0);
+  EXPECT_EQ(d.params().paper.sensor.max_range, 30.0);
+  EXPECT_EQ(d.params().paper.sensor.min_range, 0.0);
+  EXPECT_TRUE(d.params().paper.sensor.polygon.empty());
+  EXPECT_EQ(d.params().paper.sensor.detection_probability, 1.0);
+  EXPECT_EQ(d.params().paper.sensor.clutter_density, 0.0);
 }
 
 // --- dynamic filtering: static test of tentative features, bias test of landmarks -------------

@@ -12,8 +12,8 @@
 
 #include "association_fixtures.h"
 #include "djnn_fixtures.h"
-#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
 namespace {
@@ -157,7 +157,7 @@ TEST(DJNNAdmission, StaticLandmarkAtLowDetectionProbabilityIsAdmittedWithAMinimu
 }
 
 TEST(DJNNAdmission, MinimumSpeedIsOffByDefaultAndValidated) {
-  EXPECT_EQ(DJNN().params().static_min_speed, 0.0);
+  EXPECT_EQ(DJNN().params().static_test.static_min_speed, 0.0);
   EXPECT_THROW(makeDjnn({{"static_min_speed", "-0.1"}}), ParameterError);
 }
 

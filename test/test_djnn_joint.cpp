@@ -14,9 +14,9 @@
 
 #include "association_fixtures.h"
 #include "djnn_fixtures.h"
-#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/joint_ml.h"
+#include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
 namespace {
@@ -294,13 +294,13 @@ TEST(DJNNJoint, RecentlyPairedLandmarksAreLeftToNN) {
 
 TEST(DJNNJoint, OffByDefaultAndValidated) {
   DJNN d;
-  EXPECT_EQ(d.params().loop_closure_age, 0.0);
+  EXPECT_EQ(d.params().joint.loop_closure_age, 0.0);
   EXPECT_THROW(makeDjnn({{"loop_closure_age", "-1"}}), ParameterError);
   EXPECT_THROW(makeDjnn({{"loop_closure_age", "30"}}), ParameterError);  // no density
   EXPECT_THROW(makeDjnn({{"joint_margin", "-1"}}), ParameterError);
-  EXPECT_EQ(d.params().held_birth_cost, 0.0);
+  EXPECT_EQ(d.params().remembered.held_birth_cost, 0.0);
   EXPECT_THROW(makeDjnn({{"held_birth_cost", "-1"}}), ParameterError);
-  EXPECT_EQ(d.params().landmark_spacing, 0.0);
+  EXPECT_EQ(d.params().spacing.landmark_spacing, 0.0);
   EXPECT_THROW(makeDjnn({{"landmark_spacing", "-1"}}), ParameterError);
   EXPECT_THROW(makeDjnn({{"landmark_spacing", "0.8"}}), ParameterError);  // no clutter density
   EXPECT_NO_THROW(makeDjnn({{"landmark_spacing", "0.8"}, {"clutter_density", "0.02"}}));

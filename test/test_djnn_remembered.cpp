@@ -11,8 +11,8 @@
 
 #include "association_fixtures.h"
 #include "djnn_fixtures.h"
-#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
 namespace {
@@ -111,7 +111,7 @@ TEST(DJNNRemembered, HoleIsExplainedAndTheTruthDecided) {
 }
 
 TEST(DJNNRemembered, OffByDefaultAndValidated) {
-  EXPECT_EQ(DJNN().params().remembered_sightings, 0);
+  EXPECT_EQ(DJNN().params().remembered.remembered_sightings, 0);
   EXPECT_THROW(makeDjnn({{"remembered_sightings", "-1"}}), ParameterError);
 }
 

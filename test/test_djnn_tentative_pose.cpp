@@ -12,8 +12,8 @@
 
 #include "association_fixtures.h"
 #include "djnn_fixtures.h"
-#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
 namespace {
@@ -142,10 +142,10 @@ TEST(DJNNTentativePose, ShiftTestLeavesAnAmbiguousShiftUndecided) {
 
 TEST(DJNNTentativePose, DefaultsOffAndFlagsValidated) {
   DJNN d;
-  EXPECT_FALSE(d.params().tentative_follow_pose);
-  EXPECT_FALSE(d.params().static_heading);
-  EXPECT_FALSE(d.params().shift_test);
-  EXPECT_EQ(d.params().landmark_density, 0.0);
+  EXPECT_FALSE(d.params().follow_pose.tentative_follow_pose);
+  EXPECT_FALSE(d.params().static_test.static_heading);
+  EXPECT_FALSE(d.params().shift.shift_test);
+  EXPECT_EQ(d.params().density.landmark_density, 0.0);
   EXPECT_THROW(makeDjnn({{"landmark_density", "-1"}}), ParameterError);
   EXPECT_THROW(makeDjnn({{"shift_margin", "-1"}}), ParameterError);
   EXPECT_THROW(makeDjnn({{"tentative_follow_pose", "maybe"}}), ParameterError);

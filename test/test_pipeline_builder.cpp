@@ -7,6 +7,7 @@
 #include <string>
 
 #include "ekf_slam/app/pipeline_builder.h"
+#include "ekf_slam/app/yaml_configuration.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/association/rrwsc.h"
@@ -14,7 +15,6 @@
 #include "ekf_slam/core/feature_extraction/tree_feature_extractor.h"
 #include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "ekf_slam/core/relocalisation/rrwsc_relocaliser.h"
-#include "ekf_slam/app/yaml_configuration.h"
 
 namespace ekf_slam {
 namespace {
@@ -155,8 +155,8 @@ TEST(PipelineBuilder, DefaultsLieUnderTheFileAndOverridesOverIt) {
   EXPECT_DOUBLE_EQ(p.config.sigma_range, 0.3);
   EXPECT_DOUBLE_EQ(p.config.sigma_bearing, 0.02);
   const auto& djnn = dynamic_cast<DJNN&>(*p.associator);
-  EXPECT_EQ(djnn.params().admit_evidence, 4);
-  EXPECT_DOUBLE_EQ(djnn.params().individual_probability, 0.9);
+  EXPECT_EQ(djnn.params().paper.admit_evidence, 4);
+  EXPECT_DOUBLE_EQ(djnn.params().paper.individual_probability, 0.9);
   c.setOverride("", "sigma_range", "0.7");  // an override wins over the file
   EXPECT_DOUBLE_EQ(buildPipeline(c, DirectFactory()).config.sigma_range, 0.7);
   // A default for a key nobody reads is as wrong as the file's own.

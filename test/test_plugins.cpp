@@ -8,11 +8,11 @@
 #include <string>
 #include <vector>
 
+#include "ekf_slam/app/association_problem.h"
+#include "ekf_slam/app/yaml_parameter_source.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "ekf_slam/ros/plugin_loader.h"
-#include "ekf_slam/app/association_problem.h"
-#include "ekf_slam/app/yaml_parameter_source.h"
 
 namespace ekf_slam {
 namespace {
@@ -71,9 +71,9 @@ TEST(AssociatorLoader, ConfiguresFromTheParameterSource) {
   // The plugin is the same class as the core's DJNN (one ekf_slam_core shared by both).
   const auto* djnn = dynamic_cast<const DJNN*>(assoc.get());
   ASSERT_NE(djnn, nullptr);
-  EXPECT_DOUBLE_EQ(djnn->params().sensor.max_range, 42.0);
-  EXPECT_EQ(djnn->params().admit_evidence, 3);
-  EXPECT_DOUBLE_EQ(djnn->params().individual_probability, 0.9);
+  EXPECT_DOUBLE_EQ(djnn->params().paper.sensor.max_range, 42.0);
+  EXPECT_EQ(djnn->params().paper.admit_evidence, 3);
+  EXPECT_DOUBLE_EQ(djnn->params().paper.individual_probability, 0.9);
 }
 
 TEST(AssociatorLoader, BadYamlValueNamesTheParameter) {

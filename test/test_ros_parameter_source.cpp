@@ -37,8 +37,8 @@ TEST(RosParameterSource, ReadsTypedValuesInTheAssociatorNamespace) {
 
   DJNN djnn;
   djnn.configure(src);
-  EXPECT_DOUBLE_EQ(djnn.params().sensor.max_range, 25.5);
-  EXPECT_EQ(djnn.params().admit_evidence, 3);
+  EXPECT_DOUBLE_EQ(djnn.params().paper.sensor.max_range, 25.5);
+  EXPECT_EQ(djnn.params().paper.admit_evidence, 3);
 }
 
 TEST(RosParameterSource, WrongTypeNamesTheParameter) {

@@ -1,10 +1,12 @@
-// DJNN's held_confirmations rule (docs/djnn.md, "A held closure decided only on a lead that
-// repeats"), kept apart from djnn.cpp.
+#include "ekf_slam/core/association/djnn/held_confirmation.h"
+
 #include <Eigen/LU>
 
-#include "ekf_slam/core/association/djnn/djnn.h"
-
 namespace ekf_slam {
+
+void HeldConfirmation::read(const ParameterReader& r) {
+  p_.held_confirmations = r.integer("held_confirmations", Params().held_confirmations, 0, 100);
+}
 
 // A joint hypothesis of a closure is, in effect, a pose correction: the mean world-frame offset
 // of its paired observations' sources from their landmarks. Its covariance leaves the pose's own
@@ -12,8 +14,9 @@ namespace ekf_slam {
 // scans (the odometry between two scans adds little). What remains is each observation's noise
 // mapped to the world (G_obs R G_obs^T) and its landmark's covariance (which cancels when two
 // scans pair the same landmarks, so counting it is on the safe side), averaged over the n pairs.
-DJNN::Lead DJNN::leadOf(const AssociationContext& ctx, const JointMlProblem& problem,
-                        const JointMlDecision& d) const {
+HeldConfirmation::Lead HeldConfirmation::leadOf(const AssociationContext& ctx,
+                                                const JointMlProblem& problem,
+                                                const JointMlDecision& d) const {
   Lead lead;
   lead.valid = d.complete;
   if (!d.complete) return lead;
@@ -41,14 +44,19 @@ DJNN::Lead DJNN::leadOf(const AssociationContext& ctx, const JointMlProblem& pro
 // Two leads agree when both pair nothing, or both pair and their corrections differ by no more
 // than chi2(2, individual_probability) of the difference's covariance (the scans' noise is
 // independent). An incomplete decision agrees with nothing.
-bool DJNN::leadRepeats(const Lead& lead) const {
-  for (const Lead& prev : held_leads_) {
+bool HeldConfirmation::repeats(const Lead& lead, double gate) const {
+  for (const Lead& prev : leads_) {
     if (!lead.valid || !prev.valid || lead.paired != prev.paired) return false;
     if (!lead.paired) continue;
     const Eigen::Vector2d e = lead.offset - prev.offset;
-    if (e.dot((lead.cov + prev.cov).inverse() * e) > gate_) return false;
+    if (e.dot((lead.cov + prev.cov).inverse() * e) > gate) return false;
   }
   return true;
+}
+
+void HeldConfirmation::keep(const Lead& lead) {
+  leads_.push_back(lead);
+  while (static_cast<int>(leads_.size()) > p_.held_confirmations) leads_.pop_front();
 }
 
 }  // namespace ekf_slam

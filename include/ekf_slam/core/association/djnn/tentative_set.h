@@ -1,0 +1,75 @@
+// DJNN's tentative features (eq. 9): observations not yet in the map, each with its fused
+// position, evidence counter and sightings, kept in slots with a grid index so that a scan
+// visits only the features near the sensor.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ekf_slam/core/filter/ekf_slam.h"  // LandmarkId
+
+namespace ekf_slam {
+
+/// One tentative feature. The fields past `evidence` serve the extensions (static test, velocity
+/// track, remembered features); the paper's algorithm reads position, cov, evidence, last_seen.
+struct Tentative {
+  Eigen::Vector2d position = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();  ///< observation-noise part only
+  /// d(position) / d(heading) of the fused sightings: the lever of the fused position, fused
+  /// like it (the static test's heading term, the pose-following gate).
+  Eigen::Vector2d heading_lever = Eigen::Vector2d::Zero();
+  double evidence = 0.0;
+  double last_seen = 0.0;
+  bool alive = false;
+  int sightings = 0;      ///< fused into position since the last (re)start (static test)
+  double residual = 0.0;  ///< sum of normalised residuals of the sightings (static test)
+  /// Constant-velocity fit of the sightings since the last (re)start (static_min_speed):
+  /// information matrix and vector of (position at first_seen, velocity).
+  double first_seen = 0.0;
+  Eigen::Matrix4d track_info = Eigen::Matrix4d::Zero();
+  Eigen::Vector4d track_vec = Eigen::Vector4d::Zero();
+  /// Nearest recently paired map landmark at the last sighting and the offset to it
+  /// (remembered features).
+  LandmarkId anchor = kNoLandmark;
+  Eigen::Vector2d anchor_offset = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d anchor_cov = Eigen::Matrix2d::Zero();
+  bool held_birth = false;  ///< started by an observation the joint decision held
+};
+
+class TentativeSet {
+ public:
+  /// Side of the index's cells [m].
+  void setCell(double cell) { cell_ = cell; }
+  void clear();
+  bool empty() const { return cells_.empty(); }
+  std::size_t slots() const { return features_.size(); }
+  Tentative& operator[](int slot) { return features_[slot]; }
+  const Tentative& operator[](int slot) const { return features_[slot]; }
+
+  /// A new live feature at `position` (its other fields are the caller's to start).
+  int add(const Eigen::Vector2d& position);
+  /// Frees the slot of a live feature.
+  void remove(int slot);
+  void move(int slot, const Eigen::Vector2d& position);
+  /// Live features within `radius` of `center`, in slot order.
+  void query(const Eigen::Vector2d& center, double radius, std::vector<int>* out) const;
+  /// The next slot of a round-robin over all slots (the amortised timeout sweep).
+  int nextSweepSlot();
+
+ private:
+  using CellKey = std::int64_t;
+  CellKey keyOf(const Eigen::Vector2d& p) const;
+  void unindex(int slot, CellKey key);
+
+  double cell_ = 10.0;
+  std::vector<Tentative> features_;
+  std::vector<int> free_slots_;
+  std::unordered_map<CellKey, std::vector<int>> cells_;
+  std::size_t sweep_ = 0;
+};
+
+}  // namespace ekf_slam

@@ -1,0 +1,82 @@
+#include "ekf_slam/core/association/djnn/bias_test.h"
+
+#include <Eigen/LU>
+
+#include "ekf_slam/core/common/chi2.h"
+
+namespace ekf_slam {
+
+namespace {
+constexpr int kMaxPairings = 1000000;
+}  // namespace
+
+void BiasTest::read(const ParameterReader& r) {
+  const Params def;
+  p_.bias_test = r.flag("bias_test", def.bias_test);
+  p_.bias_probability = r.probability("bias_probability", def.bias_probability);
+  p_.bias_window = r.inRange("bias_window", def.bias_window, 1.0, 1.0e6);
+  p_.bias_min_pairings = r.integer("bias_min_pairings", def.bias_min_pairings, 1, kMaxPairings);
+  p_.bias_keep_pairings = r.integer("bias_keep_pairings", def.bias_keep_pairings, 0, kMaxPairings);
+}
+
+void BiasTest::configure() {
+  gate_ = chi2Quantile(p_.bias_probability, 2);
+  decay_ = 1.0 - 1.0 / p_.bias_window;
+}
+
+void BiasTest::test(const AssociationContext& ctx, LocalScan* scan, AssociationResult* result,
+                    DjnnPaper* paper, DjnnStats* stats) {
+  if (!p_.bias_test) return;
+  const int m = scan->observations();
+  for (int i = 0; i < m; ++i) {
+    const int k = scan->assign[i];
+    if (k < 0 || !biased(ctx, i, scan->cand[k])) continue;
+    const LandmarkId id = ctx.landmarkId(scan->cand[k]);
+    result->decision[i] = Decision::kRejected;
+    result->landmark[i] = kNoLandmark;
+    scan->assign[i] = -1;
+    scan->gated[i] = 1;
+    scan->count[k] = 0;
+    Bias& b = bias_[id];
+    if (p_.bias_keep_pairings > 0 && b.pairings >= p_.bias_keep_pairings) {
+      // Established by many unbiased pairings: something moving past it, not the landmark.
+      b = Bias();
+      b.pairings = p_.bias_keep_pairings;
+      ++stats->biased_kept;
+      continue;
+    }
+    result->remove.push_back(id);
+    paper->forget(id);
+    bias_.erase(id);
+    ++stats->removed;
+    ++stats->biased_removed;
+  }
+}
+
+// The innovation v of a static landmark in a consistent filter is white with covariance S, so a
+// discounted sum of them stays within chi2(2); a landmark dragged along by a mover sees the
+// mover's displacement in every innovation. Summed in the world frame (G = d(position)/dz = H_m^-1)
+// because the sensor frame turns between scans.
+bool BiasTest::biased(const AssociationContext& ctx, int obs, int j) {
+  const AssociationContext::Individual ind = ctx.individual(obs, j);
+  Matrix23d G_pose;
+  Eigen::Matrix2d G_obs;
+  const Observation& o = ctx.observations()[obs];
+  ctx.model().inverse(ctx.robotPose(), o.z, o.kind, &G_pose, &G_obs);
+  Bias& b = bias_[ctx.landmarkId(j)];
+  b.sum = decay_ * b.sum + G_obs * ind.v;
+  b.cov = (decay_ * decay_) * b.cov + G_obs * ind.S * G_obs.transpose();
+  ++b.pairings;
+  if (b.pairings < p_.bias_min_pairings) return false;
+  return b.sum.dot(b.cov.inverse() * b.sum) > gate_;
+}
+
+void BiasTest::sweep(const EkfSlam& ekf) {
+  if (bias_.size() > 2 * ekf.numLandmarks() + 64) {
+    for (auto it = bias_.begin(); it != bias_.end();) {
+      it = ekf.contains(it->first) ? std::next(it) : bias_.erase(it);
+    }
+  }
+}
+
+}  // namespace ekf_slam

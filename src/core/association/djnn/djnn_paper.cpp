@@ -1,0 +1,518 @@
+// DJNN as seed 000 states it (djnn_paper.h; ALGORITHMS.md section 4).
+#include "ekf_slam/core/association/djnn/djnn_paper.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/LU>
+
+#include "ekf_slam/core/association/nn.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/common/chi2.h"
+
+namespace ekf_slam {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kMaxEvidence = 1000000;
+// Fractional evidence steps (P_D < 1) accumulate rounding: thresholds are compared with this
+// slack. Steps of exactly +-1 (P_D = 1, no clutter) keep T an exact integer, so it changes nothing.
+constexpr double kEvidenceEps = 1e-9;
+// Tentative slots checked per scan for the timeout, wherever they are (amortised clean-up of
+// features the robot never comes back to).
+constexpr std::size_t kSweepPerScan = 8;
+
+// v - v_bar in measurement space, a bearing wrapped. v_bar is a mean over the scan's pairs, so a
+// scan is expected to hold one measurement kind (one sensor).
+Eigen::Vector2d compensate(const Eigen::Vector2d& v, const Eigen::Vector2d& v_bar,
+                           MeasurementKind kind) {
+  if (kind == MeasurementKind::kCartesian) return v - v_bar;
+  return Eigen::Vector2d(v(0) - v_bar(0), wrapAngle(v(1) - v_bar(1)));
+}
+
+}  // namespace
+
+// --- parameters ----------------------------------------------------------------------------------
+
+void DjnnPaperParams::read(const ParameterReader& r) {
+  const DjnnPaperParams def;  // the documented defaults
+  sensor = readSensorModel(r, def.sensor);
+  range_margin = r.nonNegative("range_margin", def.range_margin);
+  if (range_margin >= sensor.max_range) {
+    r.fail("range_margin", "must be smaller than sensor_range (eq. 7 shrinks R by it)");
+  }
+  angle_margin = r.inRange("angle_margin", def.angle_margin, 0.0, M_PI / 2);
+  individual_probability = r.probability("individual_probability", def.individual_probability);
+  wide_gate_factor = r.inRange("wide_gate_factor", def.wide_gate_factor, 1.0, 1.0e6);
+  admit_evidence = r.integer("admit_evidence", def.admit_evidence, 1, kMaxEvidence);
+  remove_evidence =
+      r.integer("remove_evidence", def.remove_evidence, -kMaxEvidence, admit_evidence - 1);
+  initial_evidence =
+      r.integer("initial_evidence", def.initial_evidence, remove_evidence + 1, kMaxEvidence);
+  tentative_gate_probability =
+      r.probability("tentative_gate_probability", def.tentative_gate_probability);
+  tentative_timeout = r.nonNegative("tentative_timeout", def.tentative_timeout);
+  penalty_region = r.text("penalty_region", def.penalty_region, {"sensor", "valid"});
+}
+
+// --- evidence steps ------------------------------------------------------------------------------
+
+void EvidenceModel::configure(const SensorModel& sensor, double tentative_gate, int max_evidence) {
+  sensor_ = sensor;
+  tentative_gate_ = tentative_gate;
+  max_evidence_ = max_evidence;
+}
+
+double EvidenceModel::step(bool hit, const Eigen::Matrix2d& C) const {
+  const double pd = sensor_.detection_probability;
+  double pf = 0.0;
+  if (sensor_.clutter_density > 0.0) {
+    // Gate area of the feature: the ellipse e^T C^-1 e <= tentative gate.
+    const double det = C.determinant();
+    const double area = det > 0.0 ? M_PI * tentative_gate_ * std::sqrt(det) : 0.0;
+    pf = std::min(0.5 * pd, sensor_.falseDetectionProbability(area));
+  }
+  const double tau = 0.5 * (pd + pf);
+  return hit ? 2.0 * (1.0 - tau) : -2.0 * tau;
+}
+
+double EvidenceModel::bump(double evidence, double r) const {
+  const double t = evidence + r;
+  return max_evidence_ > 0 ? std::min(t, static_cast<double>(max_evidence_)) : t;
+}
+
+// --- configuration -------------------------------------------------------------------------------
+
+void DjnnPaper::configure(const DjnnPaperParams& params, int max_evidence) {
+  p_ = params;
+  gate_ = chi2Quantile(p_.individual_probability, 2);
+  wide_gate_ = p_.wide_gate_factor * gate_;
+  tentative_gate_ = chi2Quantile(p_.tentative_gate_probability, 2);
+  model_.configure(p_.sensor, tentative_gate_, max_evidence);
+  tentatives_.setCell(0.5 * (p_.sensor.max_range + p_.range_margin));
+  if (p_.penalty_region == "valid") {
+    penalty_radial_ = -p_.range_margin;
+    penalty_lateral_ = -(p_.angle_margin * p_.sensor.max_range);
+  } else {
+    penalty_radial_ = 0.0;
+    penalty_lateral_ = 0.0;
+  }
+  reset();
+}
+
+void DjnnPaper::reset() {
+  evidence_.clear();
+  tentatives_.clear();
+}
+
+int DjnnPaper::evidence(LandmarkId id) const {
+  auto it = evidence_.find(id);
+  // Whole units (exact for P_D = 1 without clutter, where every step is +-1).
+  return it != evidence_.end() ? static_cast<int>(std::floor(it->second + kEvidenceEps))
+                               : p_.initial_evidence;
+}
+
+Eigen::Vector2d DjnnPaper::inSensorFrame(const LocalScan& scan, const Eigen::Vector2d& p) {
+  const double c = std::cos(scan.sensor_pose(2));
+  const double s = std::sin(scan.sensor_pose(2));
+  const Eigen::Vector2d d = p - scan.sensor_pose.head<2>();
+  return Eigen::Vector2d(c * d.x() + s * d.y(), -s * d.x() + c * d.y());
+}
+
+// --- 1. the local region (eq. 10, 7) -------------------------------------------------------------
+
+// Eq. 7 / 10 are written for a 180 deg sensor: the half-plane x_s > margin. SensorModel::contains
+// generalises them: for a wedge of 2a the signed distance to the nearer edge ray,
+// sin(a) x - cos(a) |y|, must exceed the margin (exactly x_s at a = 90 deg); a polygon adds the
+// distance to each of its edges; a minimum range is grown / shrunk like the maximum range.
+void DjnnPaper::localRegion(const AssociationContext& ctx, LocalScan* scan) const {
+  const double R = p_.sensor.max_range;
+  // Spatial index first (O(cells + nearby)), then the exact eq. 10.
+  scan->near = ctx.landmarksNear(scan->sensor_pose.head<2>(), R + p_.range_margin);
+  std::sort(scan->near.begin(), scan->near.end());  // deterministic, whatever the index returns
+  scan->cand.clear();
+  scan->cand_valid.clear();
+  const EkfSlam& ekf = ctx.ekf();
+  for (int j : scan->near) {
+    const Eigen::Vector2d ps = inSensorFrame(*scan, ekf.landmark(j));
+    if (!inRegion(ps, p_.range_margin, p_.angle_margin * R)) continue;  // eq. 10
+    scan->cand.push_back(j);
+    scan->cand_valid.push_back(inRegion(ps, -p_.range_margin, -(p_.angle_margin * R)));  // eq. 7
+  }
+}
+
+// --- 2. nearest neighbours (eq. 4-5) -------------------------------------------------------------
+
+void DjnnPaper::nearestNeighbours(const AssociationContext& ctx, LocalScan* scan) const {
+  const int m = scan->observations();
+  for (int i = 0; i < m; ++i) {
+    const int j = nearestNeighbour(ctx, i, scan->cand, gate_);
+    if (j < 0) continue;
+    scan->assign[i] = scan->slotOf(j);
+    scan->gated[i] = 1;
+  }
+}
+
+double DjnnPaper::score(const LocalScan& scan, int obs, int cand, const Eigen::Vector2d& v_bar,
+                        double* mahalanobis) const {
+  const AssociationContext::Individual& ind = scan.pair(obs, cand);
+  const Eigen::Vector2d v = compensate(ind.v, v_bar, scan.kind[obs]);
+  const double m = v.dot(ind.S_inv * v);
+  *mahalanobis = m;
+  return m + ind.log_det_S;  // eq. 5
+}
+
+int DjnnPaper::nearest(const LocalScan& scan, int obs, const Eigen::Vector2d& v_bar,
+                       bool use_taken) const {
+  int best = -1;
+  double best_score = kInf;
+  for (int c = 0; c < scan.candidates(); ++c) {
+    if (use_taken && scan.taken[c]) continue;
+    double m;
+    const double sc = score(scan, obs, c, v_bar, &m);
+    if (m <= gate_ && sc < best_score) {  // eq. 4, then eq. 5
+      best_score = sc;
+      best = c;
+    }
+  }
+  return best;
+}
+
+void DjnnPaper::nearestAll(LocalScan* scan, const Eigen::Vector2d& v_bar) const {
+  for (int i = 0; i < scan->observations(); ++i) scan->assign[i] = nearest(*scan, i, v_bar, false);
+}
+
+// --- 3. interference (cases 1-4, eq. 6-8) --------------------------------------------------------
+
+Eigen::Vector2d DjnnPaper::meanInnovationOfUnique(const LocalScan& scan) const {
+  // Eq. 6 over the pairs whose landmark no other observation claims.
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  int p = 0;
+  for (int i = 0; i < scan.observations(); ++i) {
+    const int a = scan.assign[i];
+    if (a < 0 || scan.count[a] != 1) continue;
+    sum += scan.pair(i, a).v;
+    ++p;
+  }
+  return p > 0 ? Eigen::Vector2d(sum / p) : Eigen::Vector2d::Zero();
+}
+
+void DjnnPaper::resolve(LocalScan* scan, const Eigen::Vector2d& v_bar, DjnnStats* stats) const {
+  const int n = scan->candidates();
+  const int m = scan->observations();
+  std::vector<int>& winner = scan->winner;
+  std::vector<double>& winner_score = scan->winner_score;
+  // Every round hands each contested landmark to one observation and marks it taken; losers only
+  // go to untaken landmarks, so the taken set grows every round: at most n rounds.
+  for (int round = 0; round <= n; ++round) {
+    if (scan->countPairings() == 0) return;
+    ++stats->resolution_rounds;
+    winner.assign(n, -1);
+    winner_score.assign(n, kInf);
+    for (int i = 0; i < m; ++i) {
+      const int a = scan->assign[i];
+      if (a < 0 || scan->count[a] < 2) continue;
+      double mah;
+      const double sc = score(*scan, i, a, v_bar, &mah);
+      if (sc < winner_score[a]) {
+        winner_score[a] = sc;
+        winner[a] = i;
+      }
+    }
+    for (int c = 0; c < n; ++c) scan->taken[c] = scan->count[c] > 0;
+    for (int i = 0; i < m; ++i) {
+      const int a = scan->assign[i];
+      if (a < 0 || scan->count[a] < 2 || winner[a] == i) continue;
+      scan->assign[i] = nearest(*scan, i, v_bar, true);
+    }
+  }
+  scan->countPairings();
+}
+
+DjnnCase DjnnPaper::resolveInterference(const AssociationContext& ctx, LocalScan* scan,
+                                        DjnnStats* stats) const {
+  const int m = scan->observations();
+  const int n = scan->candidates();
+  const int contested = scan->countPairings();
+  int paired = 0, unique = 0;
+  for (int a : scan->assign) {
+    if (a < 0) continue;
+    ++paired;
+    unique += scan->count[a] == 1;
+  }
+  const bool any_valid =
+      std::find(scan->cand_valid.begin(), scan->cand_valid.end(), 1) != scan->cand_valid.end();
+  scan->have_table = false;
+  if (paired > 0 && contested == 0) return DjnnCase::kNoInterference;  // case 1
+  if (paired == 0 && !any_valid) {
+    ++stats->case4_accepted;  // case 4, nothing should have been seen (eq. 7): accept
+    return DjnnCase::kNothingPaired;
+  }
+  // Cases 2-4 need every pair, compensated: compute them once.
+  DjnnCase result;
+  scan->have_table = true;
+  scan->table.resize(static_cast<std::size_t>(m) * n);
+  for (int i = 0; i < m; ++i) {
+    for (int c = 0; c < n; ++c) {
+      scan->table[static_cast<std::size_t>(i) * n + c] = ctx.individual(i, scan->cand[c]);
+    }
+  }
+  scan->taken.assign(n, 0);
+  Eigen::Vector2d v_bar = Eigen::Vector2d::Zero();
+  if (paired == 0) {
+    result = DjnnCase::kNothingPaired;  // case 4
+    // Any landmark that should have been seen (eq. 7)? Then the closest pair within the wide
+    // gate (eq. 8) measures the jump of the estimate.
+    int bi = -1, bc = -1;
+    double best = kInf;
+    for (int c = 0; c < n; ++c) {
+      if (!scan->cand_valid[c]) continue;
+      for (int i = 0; i < m; ++i) {
+        const double mah = scan->pair(i, c).mahalanobis;
+        if (mah <= wide_gate_ && mah < best) {
+          best = mah;
+          bi = i;
+          bc = c;
+        }
+      }
+    }
+    if (bi < 0) {
+      ++stats->case4_accepted;
+    } else {
+      ++stats->case4_compensated;
+      v_bar = scan->pair(bi, bc).v;
+      nearestAll(scan, v_bar);
+      resolve(scan, v_bar, stats);
+    }
+  } else if (unique > 0) {
+    result = DjnnCase::kPartial;  // case 2
+    v_bar = meanInnovationOfUnique(*scan);
+    resolve(scan, v_bar, stats);
+  } else {
+    result = DjnnCase::kAllInterfere;  // case 3
+    // Each contested landmark keeps its closest observation (eq. 5, uncompensated); their mean
+    // innovation (eq. 6 over these q pairs) compensates all m observations, then NN again.
+    std::vector<int>& winner = scan->winner;
+    std::vector<double>& winner_score = scan->winner_score;
+    winner.assign(n, -1);
+    winner_score.assign(n, kInf);
+    const Eigen::Vector2d zero = Eigen::Vector2d::Zero();
+    for (int i = 0; i < m; ++i) {
+      const int a = scan->assign[i];
+      if (a < 0) continue;
+      double mah;
+      const double sc = score(*scan, i, a, zero, &mah);
+      if (sc < winner_score[a]) {
+        winner_score[a] = sc;
+        winner[a] = i;
+      }
+    }
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    int q = 0;
+    for (int c = 0; c < n; ++c) {
+      if (winner[c] < 0) continue;
+      sum += scan->pair(winner[c], c).v;
+      ++q;
+    }
+    v_bar = sum / q;  // q >= 1: at least one landmark is contested
+    nearestAll(scan, v_bar);
+    resolve(scan, v_bar, stats);
+  }
+  scan->v_bar = v_bar;
+  return result;
+}
+
+// --- 4a. evidence of the map landmarks (eq. 9) ---------------------------------------------------
+
+void DjnnPaper::countMapEvidence(const AssociationContext& ctx, const LocalScan& scan,
+                                 AssociationResult* result, DjnnStats* stats) {
+  const EkfSlam& ekf = ctx.ekf();
+  // Only the local region is visited: a landmark outside it cannot be inside the sensor region,
+  // so its r_k is 0 anyway.
+  for (int k = 0; k < scan.candidates(); ++k) {
+    const LandmarkId id = ctx.landmarkId(scan.cand[k]);
+    if (std::find(result->remove.begin(), result->remove.end(), id) != result->remove.end()) {
+      continue;  // removed already (the bias test)
+    }
+    auto it = evidence_.try_emplace(id, p_.initial_evidence).first;
+    double r = 0.0;
+    if (scan.count[k] > 0) {
+      r = model_.step(true, ekf.landmarkCovariance(scan.cand[k]));
+    } else {
+      const Eigen::Vector2d ps = inSensorFrame(scan, ekf.landmark(scan.cand[k]));
+      // A scan the joint decision held undecided says nothing about which landmark was missed.
+      if (!scan.held && inPenaltyRegion(ps)) {
+        r = model_.step(false, ekf.landmarkCovariance(scan.cand[k]));
+      }
+    }
+    it->second = model_.bump(it->second, r);
+    if (it->second <= p_.remove_evidence + kEvidenceEps) {
+      result->remove.push_back(id);
+      evidence_.erase(it);
+      ++stats->removed;
+    }
+  }
+  // Counters of landmarks removed by someone else: swept when they could dominate (amortised).
+  if (evidence_.size() > 2 * ekf.numLandmarks() + 64) {
+    for (auto it = evidence_.begin(); it != evidence_.end();) {
+      it = ekf.contains(it->first) ? std::next(it) : evidence_.erase(it);
+    }
+  }
+}
+
+// --- 4b. evidence of the features not in the map (eq. 9) -----------------------------------------
+
+int DjnnPaper::startFeature(const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp,
+                            const Eigen::Vector2d& heading_lever, FeatureRules* rules) {
+  const int slot = tentatives_.add(z);
+  restartFeature(slot, z, C, stamp, heading_lever, rules);
+  return slot;
+}
+
+void DjnnPaper::restartFeature(int slot, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
+                               double stamp, const Eigen::Vector2d& heading_lever,
+                               FeatureRules* rules) {
+  Tentative& t = tentatives_[slot];
+  t.cov = C;
+  t.heading_lever = heading_lever;
+  t.evidence = model_.bump(0.0, model_.step(true, C));  // seen now
+  t.last_seen = stamp;
+  t.sightings = 1;
+  t.residual = 0.0;
+  t.first_seen = stamp;
+  t.track_info.setZero();
+  t.track_vec.setZero();
+  rules->started(&t, z, C, stamp);
+  tentatives_.move(slot, z);
+}
+
+void DjnnPaper::dropFeature(int slot, bool stale, FeatureRules* rules) {
+  if (!tentatives_[slot].alive) return;
+  rules->dropping(slot, stale);
+  tentatives_.remove(slot);
+}
+
+void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* scan,
+                                     AssociationResult* result, FeatureRules* rules,
+                                     DjnnStats* stats) {
+  const int m = static_cast<int>(ctx.numObservations());
+  const double stamp = ctx.stamp();
+  const Eigen::Vector3d pose = ctx.robotPose();
+  const Eigen::Matrix3d P_vv = ctx.ekf().poseCovariance();
+  const Eigen::Matrix2d noise = rules->sightingNoise();
+  tentatives_.query(scan->sensor_pose.head<2>(), p_.sensor.max_range + p_.range_margin,
+                    &tent_near_);
+  tent_hit_.assign(tent_near_.size(), 0);
+
+  // Observations that may be a feature not yet in the map: unpaired, not ambiguous, inside the
+  // effective range (beyond R nothing can be paired, so they would only duplicate landmarks).
+  std::vector<Sighting>& seen = sightings_;
+  seen.assign(m, Sighting{Eigen::Vector2d::Zero(), Eigen::Matrix2d::Zero(), Eigen::Vector2d::Zero(),
+                          -1, false});
+  std::vector<TentativePair>& pairs = tentative_pairs_;
+  pairs.clear();
+  for (int i = 0; i < m; ++i) {
+    const Observation& o = ctx.observations()[i];
+    if (result->decision[i] == Decision::kPaired || scan->gated[i]) continue;
+    if (!(RangeBearingModel::range(o.z, o.kind) < p_.sensor.max_range) || !o.z.allFinite()) {
+      continue;
+    }
+    seen[i].eligible = true;
+    Matrix23d G_pose;
+    Eigen::Matrix2d G_obs;
+    seen[i].pos = ctx.model().inverse(pose, o.z, o.kind, &G_pose, &G_obs);
+    seen[i].cov_obs = G_obs * o.R * G_obs.transpose();
+    seen[i].heading_lever = G_pose.col(2);
+    // Gate on position: observation noise of both sightings plus the current pose covariance once
+    // (an upper bound on the pose error accumulated between the sightings; using it twice would
+    // double-count the correlated part).
+    double lever_var = 0.0;
+    const Eigen::Matrix2d C = rules->gateCovariance(seen[i].cov_obs, G_pose, P_vv, &lever_var);
+    for (int k = 0; k < static_cast<int>(tent_near_.size()); ++k) {
+      const Tentative& t = tentatives_[tent_near_[k]];
+      const Eigen::Vector2d dl = seen[i].heading_lever - t.heading_lever;
+      const Eigen::Matrix2d S = C + t.cov + lever_var * dl * dl.transpose();
+      const Eigen::Vector2d e = seen[i].pos - t.position;
+      const double d2 = e.dot(S.inverse() * e);
+      if (d2 <= tentative_gate_) pairs.push_back({d2, i, k});
+    }
+  }
+  // One-to-one, closest first.
+  std::sort(pairs.begin(), pairs.end(), [](const TentativePair& a, const TentativePair& b) {
+    return a.d2 < b.d2 ||
+           (a.d2 == b.d2 && (a.obs < b.obs || (a.obs == b.obs && a.local < b.local)));
+  });
+  for (const TentativePair& cnd : pairs) {
+    if (seen[cnd.obs].slot >= 0 || tent_hit_[cnd.local]) continue;
+    tent_hit_[cnd.local] = 1;
+    const int slot = tent_near_[cnd.local];
+    seen[cnd.obs].slot = slot;
+    Tentative& t = tentatives_[slot];
+    const Eigen::Vector2d& z = seen[cnd.obs].pos;
+    const Eigen::Matrix2d C = seen[cnd.obs].cov_obs + noise;
+    if (!rules->stillStatic(&t, seen[cnd.obs], C, stamp)) {
+      // Not one static point (a slow mover): its history is void; restart from this sighting.
+      restartFeature(slot, z, C, stamp, seen[cnd.obs].heading_lever, rules);
+      ++stats->static_restarts;
+      continue;
+    }
+    // Fuse the sightings (information-weighted on their observation noise).
+    const Eigen::Matrix2d K = t.cov * (t.cov + C).inverse();
+    const Eigen::Vector2d fused = t.position + K * (z - t.position);
+    t.heading_lever += K * (seen[cnd.obs].heading_lever - t.heading_lever);
+    t.cov = (Eigen::Matrix2d::Identity() - K) * t.cov;
+    t.cov = 0.5 * (t.cov + t.cov.transpose()).eval();
+    t.evidence = model_.bump(t.evidence, model_.step(true, t.cov));
+    t.last_seen = stamp;
+    tentatives_.move(slot, fused);
+  }
+
+  // Tentative features in the region that were not seen this scan: r_k = -1 inside the sensor
+  // region, 0 outside (eq. 9); stale ones time out.
+  for (int k = 0; k < static_cast<int>(tent_near_.size()); ++k) {
+    if (tent_hit_[k]) continue;
+    const int slot = tent_near_[k];
+    Tentative& t = tentatives_[slot];
+    if (inPenaltyRegion(inSensorFrame(*scan, t.position))) {
+      t.evidence = model_.bump(t.evidence, model_.step(false, t.cov));
+    }
+    const bool stale = p_.tentative_timeout > 0.0 && stamp - t.last_seen > p_.tentative_timeout;
+    if (t.evidence <= p_.remove_evidence + kEvidenceEps || stale) {
+      dropFeature(slot, stale && t.evidence > p_.remove_evidence + kEvidenceEps, rules);
+      ++stats->tentative_dropped;
+    }
+  }
+
+  // Decisions: admitted when T reaches the admission threshold (eq. 9), else tentative.
+  for (int i = 0; i < m; ++i) {
+    if (!seen[i].eligible) continue;
+    int slot = seen[i].slot;
+    const bool born = slot < 0;
+    if (born)
+      slot =
+          startFeature(seen[i].pos, seen[i].cov_obs + noise, stamp, seen[i].heading_lever, rules);
+    rules->sighted(ctx, slot, i, born);
+    const double t = tentatives_[slot].evidence;
+    result->decision[i] = rules->decide(ctx, i, slot, t, t >= p_.admit_evidence - kEvidenceEps);
+    if (result->decision[i] == Decision::kNew) {
+      dropFeature(slot, false, rules);  // now the pipeline's landmark; its T in landmarkAdded()
+      ++stats->admitted;
+    }
+  }
+
+  // Amortised timeout sweep over the whole tentative set (features the robot never revisits).
+  if (p_.tentative_timeout > 0.0 && tentatives_.slots() > 0) {
+    for (std::size_t n = 0; n < kSweepPerScan && n < tentatives_.slots(); ++n) {
+      const int slot = tentatives_.nextSweepSlot();
+      const Tentative& t = tentatives_[slot];
+      if (t.alive && stamp - t.last_seen > p_.tentative_timeout) {
+        dropFeature(slot, true, rules);
+        ++stats->tentative_dropped;
+      }
+    }
+  }
+}
+
+}  // namespace ekf_slam

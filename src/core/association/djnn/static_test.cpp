@@ -1,0 +1,119 @@
+#include "ekf_slam/core/association/djnn/static_test.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/LU>
+
+namespace ekf_slam {
+
+void StaticTest::read(const ParameterReader& r) {
+  const Params def;
+  p_.static_test = r.flag("static_test", def.static_test);
+  p_.static_probability = r.probability("static_probability", def.static_probability);
+  p_.static_jitter = r.nonNegative("static_jitter", def.static_jitter);
+  p_.static_heading = r.flag("static_heading", def.static_heading);
+  p_.static_min_speed = r.nonNegative("static_min_speed", def.static_min_speed);
+}
+
+void StaticTest::configure(int admit_evidence) {
+  admit_evidence_ = admit_evidence;
+  static_gate_ = Chi2Table(p_.static_probability, 2 * std::max(admit_evidence, 2));
+  velocity_gate_ = chi2Quantile(p_.static_probability, 2);
+  baseline_information_ = 0.0;
+  if (p_.static_min_speed > 0.0) {
+    // An object at speed v has v_hat ~ N(v, J^-1): it fails the velocity test with probability
+    // about p when v sqrt(lambda_min(J)) >= sqrt(chi2(2, p)) + z_p (z_p: the standard normal
+    // quantile, one-sided along its direction of motion).
+    const double q = p_.static_probability;
+    const double z = q >= 0.5 ? std::sqrt(chi2Quantile(2.0 * q - 1.0, 1))
+                              : -std::sqrt(chi2Quantile(1.0 - 2.0 * q, 1));
+    const double k = std::max(0.0, std::sqrt(velocity_gate_) + z) / p_.static_min_speed;
+    baseline_information_ = k * k;
+  }
+}
+
+void StaticTest::beginScan(const Eigen::Matrix3d& P_vv) {
+  heading_var_ = p_.static_heading ? std::max(0.0, P_vv(2, 2)) : 0.0;
+}
+
+Eigen::Matrix2d StaticTest::sightingNoise() const {
+  return p_.static_test ? (p_.static_jitter * p_.static_jitter * Eigen::Matrix2d::Identity()).eval()
+                        : Eigen::Matrix2d::Zero().eval();
+}
+
+bool StaticTest::stillStatic(Tentative* t, const Eigen::Vector2d& z,
+                             const Eigen::Vector2d& heading_lever, const Eigen::Matrix2d& C,
+                             double stamp) const {
+  if (!p_.static_test) return true;
+  // Recursive least-squares residual of the sightings about one static point: the new
+  // sighting's normalised distance to the fused position of the earlier ones.
+  const Eigen::Vector2d e = z - t->position;
+  // A heading error common to the sightings moves each by its lever times the error: they
+  // differ by the change of lever (zero without static_heading).
+  const Eigen::Vector2d dl = heading_lever - t->heading_lever;
+  t->residual += e.dot((t->cov + C + heading_var_ * dl * dl.transpose()).inverse() * e);
+  ++t->sightings;
+  bool moving = t->residual > static_gate_(2 * (t->sightings - 1));
+  if (p_.static_min_speed > 0.0 && !moving) {
+    // Against a constant velocity (2 dof) rather than any scatter (2 (k - 1) dof): the
+    // stronger test for an object moving steadily.
+    addToTrack(t, z, C, stamp);
+    Eigen::Matrix2d J;
+    double v2 = 0.0;
+    moving = trackVelocity(*t, &J, &v2) && v2 > velocity_gate_;
+  }
+  return !moving;
+}
+
+void StaticTest::started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
+                         double stamp) const {
+  if (p_.static_min_speed > 0.0) addToTrack(t, z, C, stamp);
+}
+
+bool StaticTest::admits(const Tentative& t) const {
+  // With P_D < 1 a hit is worth more than 1, so T reaches the threshold after fewer sightings
+  // than at P_D = 1; the static test still needs the paper's admit_evidence sightings of one
+  // static point (and the time they span) to tell a slow mover from a landmark. At P_D = 1,
+  // T >= admit_evidence already implies as many sightings since the last restart.
+  if (!p_.static_test) return true;
+  if (t.sightings < admit_evidence_) return false;
+  if (p_.static_min_speed <= 0.0) return true;
+  Eigen::Matrix2d J;
+  double v2 = 0.0;
+  if (!trackVelocity(t, &J, &v2)) return false;
+  // Least eigenvalue of the symmetric 2 x 2 J: the direction the velocity is least known in.
+  const double half_trace = 0.5 * J.trace();
+  const double gap = std::sqrt(std::max(0.0, half_trace * half_trace - J.determinant()));
+  return half_trace - gap >= baseline_information_;
+}
+
+// Weighted least squares of z_i = p + (t_i - t_0) v + e_i, e_i ~ N(0, C_i), in information form.
+void StaticTest::addToTrack(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
+                            double stamp) {
+  const double dt = stamp - t->first_seen;
+  const Eigen::Matrix2d W = C.inverse();
+  t->track_info.topLeftCorner<2, 2>() += W;
+  t->track_info.topRightCorner<2, 2>() += dt * W;
+  t->track_info.bottomLeftCorner<2, 2>() += dt * W;
+  t->track_info.bottomRightCorner<2, 2>() += dt * dt * W;
+  const Eigen::Vector2d wz = W * z;
+  t->track_vec.head<2>() += wz;
+  t->track_vec.tail<2>() += dt * wz;
+}
+
+bool StaticTest::trackVelocity(const Tentative& t, Eigen::Matrix2d* J, double* statistic) {
+  // Position marginalised out (Schur complement): J = L_vv - L_vp L_pp^-1 L_pv, and
+  // v_hat = J^-1 b with b = y_v - L_vp L_pp^-1 y_p, so v_hat^T J v_hat = b^T J^-1 b.
+  const Eigen::Matrix2d Lpp_inv = t.track_info.topLeftCorner<2, 2>().inverse();
+  const Eigen::Matrix2d Lvp = t.track_info.bottomLeftCorner<2, 2>();
+  *J = t.track_info.bottomRightCorner<2, 2>() - Lvp * Lpp_inv * Lvp.transpose();
+  const Eigen::Vector2d b = t.track_vec.tail<2>() - Lvp * Lpp_inv * t.track_vec.head<2>();
+  const double det = J->determinant();
+  // All sightings at one stamp (or one): no velocity information yet.
+  if (!(det > 1e-12 * J->squaredNorm()) || !(J->trace() > 0.0)) return false;
+  *statistic = b.dot(J->inverse() * b);
+  return std::isfinite(*statistic);
+}
+
+}  // namespace ekf_slam

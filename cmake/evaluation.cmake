@@ -8,6 +8,7 @@ add_library(ekf_slam_evaluation
   src/evaluation/simulation/laser_scan_simulator.cpp
   src/evaluation/scoring/association_metrics.cpp
   src/evaluation/scoring/trajectory_metrics.cpp
+  src/evaluation/world_parameters.cpp
   src/evaluation/simulated_run.cpp
   src/evaluation/association_ceiling.cpp)
 target_include_directories(ekf_slam_evaluation PUBLIC include)

@@ -27,7 +27,8 @@ foreach(family association relocalisation extraction)
 endforeach()
 
 # The node: its ROS class and markers; `rosrun ekf_slam ekf_slam`.
-add_library(ekf_slam_node src/ros/node/ekf_slam_node.cpp src/ros/node/markers.cpp)
+add_library(ekf_slam_node src/ros/node/ekf_slam_node.cpp src/ros/node/node_services.cpp
+                          src/ros/node/node_diagnostics.cpp src/ros/node/markers.cpp)
 target_link_libraries(ekf_slam_node PUBLIC ekf_slam_ros)
 add_executable(ekf_slam_node_main src/nodes/ekf_slam_node_main.cpp)
 target_link_libraries(ekf_slam_node_main ekf_slam_node)
@@ -37,6 +38,9 @@ set_target_properties(ekf_slam_node_main PROPERTIES OUTPUT_NAME ekf_slam)
 # simulated bags, so it links the test bench's scorers); `rosrun ekf_slam ekf_slam_offline`.
 add_library(ekf_slam_offline_runner
   src/ros/offline/checked_bag_reader.cpp
+  src/ros/offline/bag_input.cpp
+  src/ros/offline/run_record.cpp
+  src/ros/offline/offline_report.cpp
   src/ros/offline/offline_runner.cpp)
 target_link_libraries(ekf_slam_offline_runner
   PUBLIC ekf_slam_ros ekf_slam_evaluation PRIVATE nlohmann_json::nlohmann_json)

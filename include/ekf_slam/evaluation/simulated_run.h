@@ -27,10 +27,11 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 #include "ekf_slam/evaluation/scoring/association_metrics.h"
 #include "ekf_slam/evaluation/scoring/trajectory_metrics.h"
 #include "ekf_slam/evaluation/simulation/simulator.h"
-#include "ekf_slam/core/pipeline/slam_pipeline.h"
+#include "ekf_slam/evaluation/world_parameters.h"
 
 namespace ekf_slam {
 namespace sim {
@@ -50,38 +51,6 @@ double stampOnBag(double sim_stamp);
 Eigen::Vector3d poseOnBag(const Eigen::Vector3d& pose);
 /// An odometry sample as a bag gives it back (stampOnBag, poseOnBag).
 OdometryInput odometryOnBag(const OdometrySample& sample);
-
-/// Pipeline parameters (the names of docs/parameters.md, values as text) that match a world:
-/// initial pose = the world's start pose, twist-mode noise = twistNoiseFor(world) (a world with
-/// wheel factors, `aekf`: its exact speed and steering noise, no wheel-factor random walk), R =
-/// the world's observation noise, observation range covering the sensor (a large finite value
-/// for whole-map worlds), min range 0.
-std::map<std::string, std::string> pipelineParametersFor(const World& world);
-/// readPipelineConfig(pipelineParametersFor(world)).
-PipelineConfig pipelineConfigFor(const World& world);
-
-/// Parameters of plugin `short_name` ("DJNN", "NN", "FGCBB", ...) that depend on the world:
-/// DJNN's sensor_range and field_of_view (the local region, eq. 10: for a whole-map world a range
-/// that covers the whole area), the relocalisers' sensor_range; empty for plugins without
-/// world-dependent parameters.
-std::map<std::string, std::string> associatorParametersFor(const World& world,
-                                                           const std::string& short_name);
-
-/// Landmarks per m^2 of the ground the sensor's region covers along the world's route: the
-/// landmarks inside the cells (side `cell` [m]) whose centre one of the true sensor poses of a run
-/// (seed 1) saw, over the area of those cells inside the world's area (area_min..area_max). This
-/// is what DJNN's `landmark_density` means ("unmapped landmarks per m^2 where the sensor looks"):
-/// a corridor world holds its markers in a fraction of its bounding box. 0 for a world without
-/// views. The cell is at least the sensor's covering range / 100 (a bounded cost per view).
-double coveredLandmarkDensity(const World& world, double cell = 0.25);
-
-/// The feature extractor a laser world's scans need (sim::laserWorld): its plugin's short name
-/// and parameters (docs/feature_extraction.md); an empty name for the point-observation worlds.
-struct ExtractorSetup {
-  std::string name;
-  std::map<std::string, std::string> parameters;
-};
-ExtractorSetup extractorFor(const World& world);
 
 }  // namespace sim
 

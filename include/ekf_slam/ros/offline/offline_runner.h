@@ -30,71 +30,9 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/pipeline/slam_pipeline.h"
+#include "ekf_slam/ros/offline/offline_options.h"
 
 namespace ekf_slam {
-
-struct OfflineOptions {
-  std::string bag_path;
-  std::string out_dir;
-  /// YAML with the pipeline parameters at the top level and each associator's under its short
-  /// name (config/victoria_park.yaml); empty: every default.
-  std::string params_path;
-  /// Plugin name ("DJNN" or "ekf_slam/DJNN"); empty: the YAML's `associator`, else the default.
-  std::string associator;
-  /// Relocaliser plugin ("FGCBB" or "ekf_slam/FGCBB"); empty: the YAML's `relocaliser`, else
-  /// none (recovery off).
-  std::string relocaliser;
-  /// A map file (~save_map format) loaded before the first scan; empty: start with no map.
-  std::string load_map;
-  /// With load_map: the pose in that map is unknown, the run starts lost (needs a relocaliser).
-  bool unknown_pose = false;
-  /// Pose jumps injected before a scan (SlamPipeline::injectPoseJump), to test recovery.
-  struct Kidnap {
-    std::uint32_t scan = 0;                          ///< 0-based processed scan
-    Eigen::Vector3d jump = Eigen::Vector3d::Zero();  ///< map frame dx, dy [m], dyaw [rad]
-  };
-  std::vector<Kidnap> kidnaps;
-  /// 0-based scan whose association problem is written to DIR/problem_<SCAN>.json.
-  std::optional<std::uint32_t> dump_problem_scan;
-  /// Every landmark's mean and covariance after every scan, to DIR/landmark_trace.csv: how the
-  /// map moves over the run (scripts/map_drift.py). Large (about 1.1 million rows for Victoria
-  /// Park); with filter cekf every scan brings the whole map up to date (the same estimates,
-  /// slower).
-  bool landmark_trace = false;
-  /// After the run, the batch smoother (core/smoothing/, docs/smoothing.md) re-estimates every
-  /// scan pose and landmark from all of the run's odometry and pairings:
-  /// DIR/trajectory_smoothed.csv, DIR/map_smoothed.txt (~save_map format) and metrics.json
-  /// "smoothing". Not with load_map (the loaded map's own information would be dropped).
-  bool smooth = false;
-  std::string scan_topic = "/scan";
-  std::string odom_topic = "/odom";
-  std::string observations_topic = "/observations";
-  std::string gps_topic = "/gps";
-  std::string tf_static_topic = "/tf_static";
-  /// nav_msgs/Odometry with the true pose (simulated bags): pose metrics in metrics.json "truth".
-  std::string ground_truth_topic = "/ground_truth";
-  /// ekf_slam/LandmarkArray, latched, with the true landmarks (simulated bags): for the picture.
-  std::string true_map_topic = "/true_map";
-  std::string base_frame = "base_link";
-  /// Called after every processed scan (not from the command line: for tools built on the
-  /// runner, e.g. relocalisation_experiment).
-  std::function<void(const ScanReport&, const SlamPipeline&)> on_scan;
-  bool plot = true;      ///< run scripts/plot_map.py
-  bool progress = true;  ///< progress bar, only when stderr is a terminal
-};
-
-/// The numbers of a run (also written to DIR/metrics.json).
-struct OfflineSummary {
-  std::string associator;
-  std::uint64_t scans = 0;
-  std::uint64_t odometry = 0;
-  std::size_t landmarks = 0;
-  double wall_time_s = 0.0;
-  double gps_rmse_m = -1.0;           ///< < 0 without GPS
-  std::uint64_t relocalisations = 0;  ///< PipelineCounters::relocalisations
-  std::string metrics_json;           ///< the text of metrics.json
-};
 
 /// Command line (without the program name). Returns false and sets *error on bad arguments;
 /// sets *help for --help.

@@ -2,15 +2,9 @@
 
 #include <chrono>
 
+#include "ekf_slam/core/common/stopwatch.h"
+
 namespace ekf_slam {
-
-namespace {
-
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
 
 void MapUpdater::associate(DataAssociation& associator, double stamp, ScanReport* report) {
   EkfSlam& ekf = filter_.ekf();

@@ -10,6 +10,7 @@
 #include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/common/chi2.h"
 #include "ekf_slam/core/common/pose2d.h"
+#include "ekf_slam/core/common/stopwatch.h"
 #include "ekf_slam/core/relocalisation/geometric_constraints.h"
 
 namespace ekf_slam {
@@ -22,10 +23,6 @@ constexpr std::size_t kMaxLostPath = 10000;
 // A probe's pose is a kidnap when the filter's estimate does not cover it: its difference from
 // the estimate, with both covariances, beyond chi2(3) at this probability.
 constexpr double kProbeProbability = 0.999;
-
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 }  // namespace
 

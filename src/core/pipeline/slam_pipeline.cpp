@@ -1,6 +1,7 @@
 // The SLAM data flow, orchestrated (slam_pipeline.h): each step is its own class.
-#include "ekf_slam/core/pipeline/slam_pipeline.h"
 
+#include "ekf_slam/core/common/stopwatch.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
 #include <algorithm>
 #include <chrono>
 #include <stdexcept>
@@ -18,10 +19,6 @@ namespace {
 // with the pairings that follows re-derives the pose, its covariance and its cross-covariance
 // with the map from the map and the scan alone (docs/relocalisation.md).
 constexpr double kRelocalisedPriorInflation = 1e4;
-
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 // The config, checked before anything is built from it.
 const PipelineConfig& validated(const PipelineConfig& config) {

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ekf_slam/app/output_files.h"
+#include "ekf_slam/core/common/stopwatch.h"
 #include "ekf_slam/evaluation/scoring/trajectory_metrics.h"
 
 namespace ekf_slam {
@@ -22,10 +23,6 @@ namespace ekf_slam {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 // --- statistics ----------------------------------------------------------------------------------
 

@@ -18,6 +18,7 @@
 #include "ekf_slam/app/output_files.h"
 #include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/app/yaml_configuration.h"
+#include "ekf_slam/core/common/stopwatch.h"
 #include "ekf_slam/core/pipeline/input_sequencer.h"
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
 #include "ekf_slam/ros/offline/bag_input.h"
@@ -29,10 +30,6 @@ namespace ekf_slam {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 // Captures, on request, the association problem of one scan: associate() sees the EKF predicted
 // to the scan and the final observations, which is exactly what a replay needs, without the

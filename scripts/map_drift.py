@@ -3,7 +3,7 @@
 
 Reads a run of `ekf_slam_offline ... --landmark-trace` (OUT/landmark_trace.csv, trajectory.csv,
 associations.csv, gps.csv) and a stretch of the route [FROM, TO) s; "the stretch's landmarks" are
-those paired in it. Prints (docs/relocalisation.md, "Why the saved map is off GPS near 1350"):
+those paired in it. Prints (docs/notes/2026-11-to-12-relocalisation-record.md, "With the smoothed map and trajectory"):
 
 1. The map of the stretch against GPS over time. For each evaluation time T and each scan s of
    the stretch with a good GPS fix (the runner's gps.csv: moved into the map frame, `faulty` 0)

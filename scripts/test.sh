@@ -45,7 +45,8 @@ if [[ $ctest_rc -ne 0 && $failed -eq 0 ]]; then failed=1; fi  # a crashed binary
 # runs it (CI once stayed green while it failed in every fresh clone), on the data set when it is
 # there (in CI it must be) and on the simulated world; on the data set also the saved-map
 # windows (scripts/saved_map_windows.sh) and the behaviour identity (scripts/identity.sh);
-# the include rule of docs/architecture.md (scripts/check_layers.py); catkin_lint --strict; rosdep
+# the include rule of docs/architecture.md (scripts/check_layers.py); the docs' links
+# (scripts/check_links.py); catkin_lint --strict; rosdep
 # resolving
 # every key of package.xml.
 cd "$EKF_SLAM_ROOT"
@@ -78,6 +79,7 @@ else
 fi
 check demo_simulation env DEMO=simulation "$EKF_SLAM_ROOT/scripts/demo.sh"
 check layers /usr/bin/python3 "$EKF_SLAM_ROOT/scripts/check_layers.py"
+check doc_links /usr/bin/python3 "$EKF_SLAM_ROOT/scripts/check_links.py"
 check catkin_lint "$EKF_SLAM_ROOT/scripts/lint.sh"
 check rosdep "$EKF_SLAM_ROOT/scripts/rosdep_check.sh"
 echo "total time: $(( $(date +%s) - start )) s"

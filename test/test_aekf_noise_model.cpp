@@ -1,7 +1,7 @@
 // The `aekf` world's parameter file (sim::pipelineParametersFor) describes the simulator's
 // odometry noise: the normalised error of each control step's twist against the noise-free one
 // has the chi-square(2) mean 2 with the filter's twist covariance, on straights and in turns, and
-// the wheel factors, constant in the simulator, get no random walk (docs/results.md, AEKF).
+// the wheel factors, constant in the simulator, get no random walk (docs/notes/2026-11-to-12-results-record.md, AEKF).
 #include <gtest/gtest.h>
 
 #include <cmath>

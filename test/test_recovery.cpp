@@ -170,8 +170,7 @@ TEST(Recovery, KidnapIsDetectedAndRecoveredWithoutDuplicatingTheMap) {
   EXPECT_EQ(d.duplicates(), 0);
 }
 
-// The probe (docs/relocalisation.md, "Nothing established paired and nothing established in
-// view"): the filter believes it stands in ground it has not mapped, while the vehicle is back in
+// The probe (docs/relocalisation.md, rule 1's probe): the filter believes it stands in ground it has not mapped, while the vehicle is back in
 // the mapped part of the forest. No lost rule can fire (no established landmark in view at the
 // believed pose), so the relocaliser probes; its fix lies far outside the filter's estimate, so
 // the pipeline goes lost and applies it (with relocalisation_confirmations 1, once the next fix

@@ -96,7 +96,7 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
   if (world.noise.odometry_wheel_factors != Eigen::Vector2d::Ones()) {
     // What odometry_correction: wheel_factors needs to match the simulated wheels: their track,
     // and no random walk (the world's factors are constant). This world's consistency is what
-    // it is for (AEKF, docs/results.md), so it also gets its odometry noise exactly: the speed
+    // it is for (AEKF, docs/notes/2026-11-to-12-results-record.md), so it also gets its odometry noise exactly: the speed
     // and steering-angle noise of each control step on its wheelbase, where twistNoiseFor's
     // bound at the steering limit is 3.3 times the yaw-rate noise of a straight and, with it
     // read on a straight, the turns' noise (1.7 times the variance) was missing.

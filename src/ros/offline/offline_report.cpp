@@ -375,7 +375,7 @@ OfflineSummary writeOfflineReport(const OfflineOptions& o, const BagContents& ba
   j["relocaliser"] = loop.relocaliser;
   j["lost_at_end"] = pipeline.lost();
   j["relocalisation_us_median"] = number(quantile(record.relocalisation_us, 0.5));
-  // The whole cost of recovery, probes included (docs/relocalisation.md).
+  // The whole cost of recovery, probes included (docs/notes/2026-11-to-12-relocalisation-record.md, "Victoria Park with --kidnap").
   j["relocalisation_time_s"] =
       1e-6 * std::accumulate(record.relocalisation_us.begin(), record.relocalisation_us.end(), 0.0);
   nlohmann::json events = nlohmann::json::array();

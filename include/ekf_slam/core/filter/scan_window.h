@@ -23,7 +23,7 @@ struct CarriedScan {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   Eigen::Matrix3d origin_covariance = Eigen::Matrix3d::Zero();
   /// The scan's own pose estimate (map frame) and Q, the current pose's covariance given it (the
-  /// odometry's noise since; DJNN's held window, docs/djnn.md).
+  /// odometry's noise since).
   Eigen::Vector3d pose = Eigen::Vector3d::Zero();
   Eigen::Matrix3d Q = Eigen::Matrix3d::Zero();
 };

@@ -13,7 +13,7 @@
 // exactly the way the truth moved. A world plus a seed gives the same output bit for bit: all
 // randomness comes from std::mt19937_64 (its sequence is fixed by the standard) through our own
 // uniform and normal transforms (std::*_distribution are implementation-defined). The choices
-// the papers leave open are documented in docs/simulation.md.
+// the papers leave open are documented in docs/notes/2026-11-to-12-simulation-record.md.
 #pragma once
 
 #include <cstdint>

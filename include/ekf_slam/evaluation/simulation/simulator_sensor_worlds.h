@@ -1,7 +1,8 @@
 // Simulated worlds for sensors that miss landmarks (issue 13): `arena`, a small room seen by a
 // narrow camera with a low detection probability, other robots moving through it; `fiducials`
 // (and `fiducials_lattice`), a downward camera reading floor markers along corridors. Registered
-// in simulator.cpp's world list; values and reasoning in docs/simulation.md.
+// in simulator.cpp's world list; values and reasoning in
+// docs/notes/2026-11-to-12-simulation-record.md, "Sensors that miss landmarks".
 #pragma once
 
 #include <cstdint>

@@ -66,6 +66,7 @@ add_library(ekf_slam_core
   src/core/pipeline/observation_builder.cpp
   src/core/pipeline/landmark_book.cpp
   src/core/pipeline/map_updater.cpp
+  src/core/pipeline/delayed_sightings.cpp
   src/core/pipeline/lost_monitor.cpp
   src/core/pipeline/recovery.cpp
   src/core/pipeline/map_file.cpp

@@ -36,13 +36,13 @@ foreach(t test_chi2 test_parameters test_coverage_grid test_sensor_model
           test_nnjcbb test_hungarian test_shape_context test_reweighted_random_walks
           test_rrwsc_matcher test_rrwsc test_djnn test_djnn_detection test_djnn_admission
           test_djnn_tentative_pose test_djnn_joint test_djnn_remembered test_geometric_constraints test_fgcbb test_rrwsc_relocaliser
-          test_batch_smoother)
+          test_batch_smoother test_pose_clones)
   ekf_slam_test(${t} LIBS ekf_slam_core)
 endforeach()
 ekf_slam_test(test_tree_extractor LIBS ekf_slam_core ekf_slam_victoria_park)
 
 # The estimator on simulated worlds, and the test bench itself.
-foreach(t test_slam_pipeline test_scan_geometry test_input_sequencer test_pipeline_config
+foreach(t test_slam_pipeline test_delayed_sightings test_scan_geometry test_input_sequencer test_pipeline_config
           test_odometry_correction test_recovery test_recovery_window test_refused_lost_rule
           test_share_lost_rule test_compressed_ekf test_filter_consistency test_aekf_noise_model
           test_smoothing_recorder test_simulator test_city_world test_beacon_car_park

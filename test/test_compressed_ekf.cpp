@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "ekf_slam/core/association/djnn/djnn.h"
-#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/core/pipeline/pipeline_config.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 
 namespace ekf_slam {
 namespace {
@@ -59,6 +59,8 @@ Outcome run(const std::string& world_name, const std::string& filter, const std:
   params["cekf_area_size"] = std::to_string(area);
   params["cekf_margin"] = "3";
   params["cekf_area_slack"] = std::to_string(slack);
+  // The compressed filter keeps no pose clones: both admit new landmarks from their last sighting.
+  params["delayed_sightings"] = "false";
   const PipelineConfig config = readPipelineConfig(MapParameterSource(params));
   std::shared_ptr<DataAssociation> a = associator(assoc, world);
   auto* known = dynamic_cast<KnownAssociation*>(a.get());

@@ -64,6 +64,7 @@ TEST(OdometryCorrection, NoneIsBitIdenticalToThePlainFilter) {
   const sim::World w = sim::makeWorld("tiny");
   PipelineConfig config = sim::pipelineConfigFor(w);
   ASSERT_EQ(config.correction.mode, "none");
+  config.delayed_sightings = false;  // as that filter: new landmarks from their last sighting
   auto djnn = std::make_shared<DJNN>();
   djnn->configure(MapParameterSource(sim::associatorParametersFor(w, "DJNN")));
   SlamPipeline p(config, djnn);

@@ -258,15 +258,16 @@ AssociationProblem makeAssociationProblem(const EkfSlam& ekf, const RangeBearing
                                           const std::vector<Observation>& observations) {
   AssociationProblem p;
   // The file holds pose and landmarks only (3 + 2n): odometry correction states (rows 3..3+k)
-  // play no part in association, so they are marginalised out (dropped).
+  // and pose clones (after the map) play no part in association, so they are marginalised out
+  // (dropped).
   const Eigen::Index k = ekf.correctionDim();
-  const Eigen::Index n = ekf.mean().size() - 3 - k;
+  const Eigen::Index n = 2 * static_cast<Eigen::Index>(ekf.numLandmarks());
   p.state.resize(3 + n);
-  p.state << ekf.mean().head(3), ekf.mean().tail(n);
+  p.state << ekf.mean().head(3), ekf.mean().segment(3 + k, n);
   p.covariance.resize(3 + n, 3 + n);
   const auto P = ekf.covariance();  // a view, no copy
-  p.covariance << P.topLeftCorner(3, 3), P.topRightCorner(3, n), P.bottomLeftCorner(n, 3),
-      P.bottomRightCorner(n, n);
+  p.covariance << P.topLeftCorner(3, 3), P.block(0, 3 + k, 3, n), P.block(3 + k, 0, n, 3),
+      P.block(3 + k, 3 + k, n, n);
   p.sensor_offset = model.sensorOffset();
   if (!observations.empty()) p.R = observations.front().R;
   for (const auto& o : observations) {

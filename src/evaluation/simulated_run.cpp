@@ -121,6 +121,20 @@ void RunScorer::addScan(const ScanReport& report, const std::vector<LandmarkId>&
                                 std::to_string(report.observations.size()) + " observations");
   }
   scorer_.addScan(truth, report.association, report.removed);
+  if (!report.delayed_sightings.empty()) {
+    std::vector<std::pair<LandmarkId, LandmarkId>> applied;
+    for (const DelayedSighting& d : report.delayed_sightings) {
+      const auto it = recent_truth_.find(d.scan);
+      if (it != recent_truth_.end() && d.observation < static_cast<int>(it->second.size()))
+        applied.emplace_back(d.landmark, it->second[d.observation]);
+    }
+    scorer_.addDelayedSightings(applied);
+  }
+  // Kept as long as a sighting may be held back (max_pose_clones scans at most: 10000 bounds
+  // any setting).
+  constexpr std::size_t kRecentScans = 10000;
+  recent_truth_[report.scan] = truth;
+  while (recent_truth_.size() > kRecentScans) recent_truth_.erase(recent_truth_.begin());
   ++scans_;
   observations_ += truth.size();
   association_s_ += report.association_s;

@@ -14,9 +14,9 @@
 #include <stdexcept>
 #include <thread>
 
+#include "ekf_slam/app/output_files.h"
 #include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/ros/plugin_loader.h"
-#include "ekf_slam/app/output_files.h"
 
 namespace ekf_slam {
 namespace {
@@ -203,14 +203,16 @@ std::string mapTable(const Evaluation& e, const std::string& world,
         "final landmarks alone on a true landmark / final landmarks; recall = true landmarks seen "
      << kMinObservationsToFind
      << "+ times held by exactly one landmark; coverage = observations of mapped landmarks "
-        "paired with them):\n\n"
+        "paired with them; sightings used = of those, the ones the filter used on the right "
+        "landmark: paired, creating it, or applied when it was created):\n\n"
      << "| associator | ATE aligned [m] | heading aligned [rad] | map RMSE aligned [m] | created | "
-        "created / true seen | landmark precision | landmark recall | pairing coverage |\n"
-     << "|---|---|---|---|---|---|---|---|---|\n";
+        "created / true seen | landmark precision | landmark recall | pairing coverage | "
+        "sightings used |\n"
+     << "|---|---|---|---|---|---|---|---|---|---|\n";
   for (const std::string& a : shorts) {
     const auto rows = select(e, world, a);
     if (rows.empty()) continue;
-    std::vector<double> ate, yaw, map, created, per_true, prec, rec, cov;
+    std::vector<double> ate, yaw, map, created, per_true, prec, rec, cov, used;
     for (const EvaluationRow* r : rows) {
       const RunMetrics& m = r->metrics;
       ate.push_back(m.pose_ate_aligned_m);
@@ -224,11 +226,13 @@ std::string mapTable(const Evaluation& e, const std::string& world,
       prec.push_back(m.map.landmark_precision);
       rec.push_back(m.map.landmark_recall);
       cov.push_back(m.map.pairing_coverage);
+      used.push_back(m.map.sightings_used);
     }
     md << "| " << a << " | " << format(spread(ate), 3) << " | " << format(spread(yaw), 4) << " | "
        << format(spread(map), 3) << " | " << format(spread(created), 1) << " | "
        << format(spread(per_true), 2) << " | " << format(spread(prec), 4) << " | "
-       << format(spread(rec), 4) << " | " << format(spread(cov), 4) << " |\n";
+       << format(spread(rec), 4) << " | " << format(spread(cov), 4) << " | "
+       << format(spread(used), 4) << " |\n";
   }
   return md.str();
 }
@@ -458,7 +462,7 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
            "map_rmse_aligned_m,landmarks_created,true_landmarks_findable,true_landmarks_found,"
            "landmark_precision,landmark_recall,pairing_coverage,recovery_scans_map,"
            "recovery_s_map,error_before_kidnap_map_m,error_after_kidnap_map_m,"
-           "wrong_relocalisations_map\n";
+           "wrong_relocalisations_map,sightings_used\n";
     for (const EvaluationRow& r : e.rows) {
       const RunMetrics& m = r.metrics;
       csv << r.world << ',' << r.associator << ',' << r.run << ',' << r.seed << ','
@@ -508,7 +512,7 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
         csv << ',';
         if (std::isfinite(v)) csv << v;
       }
-      csv << ',' << m.wrong_relocalisations_map;
+      csv << ',' << m.wrong_relocalisations_map << ',' << m.map.sightings_used;
       csv << '\n';
     }
   }

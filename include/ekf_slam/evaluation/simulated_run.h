@@ -218,6 +218,8 @@ class RunScorer {
   double first_stamp_ = 0.0;
   bool have_first_ = false;
   AssociationScorer scorer_;
+  // The truth ids of the recent scans (by ScanReport::scan), for their delayed sightings.
+  std::map<std::uint32_t, std::vector<LandmarkId>> recent_truth_;
   PoseErrorStats pose_;
   double nees_sum_ = 0.0;
   std::uint64_t nees_n_ = 0, scans_ = 0, observations_ = 0;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -51,6 +52,9 @@ void EkfSlam::reset(const Eigen::Vector3d& pose, const Eigen::Matrix3d& pose_cov
   ids_.clear();
   index_of_.clear();
   first_.clear();
+  clones_.clear();
+  clone_tags_.clear();
+  clone_first_.clear();
   prior_position_ = x_.head<2>();
   next_id_ = 0;
 }
@@ -125,11 +129,17 @@ bool EkfSlam::predict(const MotionStep& step) {
   P.topLeftCorner<3, 3>() = 0.5 * (Pn + Pn.transpose());
 
   // Pose/map cross-covariance, one landmark at a time: fixed-size blocks, no temporaries.
-  const Eigen::Index n = dim_;
-  for (Eigen::Index r = 3; r < n; r += 2) {
+  const Eigen::Index map_end = mapEnd();
+  for (Eigen::Index r = 3; r < map_end; r += 2) {
     const Eigen::Matrix<double, 3, 2> c = F * P.block<3, 2>(0, r);
     P.block<3, 2>(0, r) = c;
     P.block<2, 3>(r, 0) = c.transpose();
+  }
+  // ... and with each clone (a clone does not move: its column is a landmark's).
+  for (Eigen::Index r = map_end; r < dim_; r += 3) {
+    const Eigen::Matrix3d c = F * P.block<3, 3>(0, r);
+    P.block<3, 3>(0, r) = c;
+    P.block<3, 3>(r, 0) = c.transpose();
   }
   return true;
 }
@@ -159,23 +169,32 @@ bool EkfSlam::predictAugmented(const MotionStep& step) {
   x_.head<3>() = step.pose;
   x_(2) = wrapAngle(x_(2));
   prior_position_ = x_.head<2>();
-  const Eigen::Index n = dim_;
-  for (Eigen::Index r = a; r < n; r += 2) {
+  const Eigen::Index map_end = mapEnd();
+  for (Eigen::Index r = a; r < map_end; r += 2) {
     const Eigen::Matrix<double, 3, 2> c = B * P.block(0, r, a, 2);
     P.block<3, 2>(0, r) = c;
     P.block<2, 3>(r, 0) = c.transpose();
   }
+  for (Eigen::Index r = map_end; r < dim_; r += 3) {
+    const Eigen::Matrix3d c = B * P.block(0, r, a, 3);
+    P.block<3, 3>(0, r) = c;
+    P.block<3, 3>(r, 0) = c.transpose();
+  }
   return true;
 }
 
-bool EkfSlam::secondOrderTerms(int index, const RangeBearingModel& model, MeasurementKind kind,
-                               Eigen::Vector2d* mean, Eigen::Matrix2d* extra) const {
+bool EkfSlam::secondOrderTerms(int index, int pose_row, const RangeBearingModel& model,
+                               MeasurementKind kind, Eigen::Vector2d* mean,
+                               Eigen::Matrix2d* extra) const {
   if (!second_order_ || kind != MeasurementKind::kRangeBearing) return false;
   const ConstMatrixView P = storedCovariance();  // the blocks read here are current
   const int r = stateRow(index);
-  const Eigen::Vector3d xv = x_.head<3>();
-  const Eigen::Matrix2d C = model.relativeCovariance(
-      xv, P.topLeftCorner<3, 3>(), P.block<2, 3>(r, 0), landmarkCovariance(index));
+  const Eigen::Vector3d xv = x_.segment<3>(pose_row);
+  // cov(landmark, pose) from the lower triangle (a clone's rows lie below the map's).
+  const Matrix23d cross = pose_row < r ? Matrix23d(P.block<2, 3>(r, pose_row))
+                                       : Matrix23d(P.block<3, 2>(pose_row, r).transpose());
+  const Eigen::Matrix2d C = model.relativeCovariance(xv, P.block<3, 3>(pose_row, pose_row), cross,
+                                                     landmarkCovariance(index));
   RangeBearingModel::rangeBearingSecondOrder(x_.segment<2>(r) - model.sensorPose(xv).head<2>(), C,
                                              mean, extra);
   return true;
@@ -190,9 +209,9 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   }
   const Eigen::Index n = x_.size();
   const int d = 2 * m;
-  const Eigen::Vector3d xv = x_.head<3>();
 
   rows_.resize(m);
+  pose_rows_.resize(m);
   hv_.resize(m);
   hm_.resize(m);
   r_.resize(m);
@@ -203,15 +222,26 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
     const int idx = indexOf(p.id);
     if (idx < 0 || !p.z.allFinite() || !p.R.allFinite()) return false;
     rows_[i] = stateRow(idx);
+    int clone = -1;
+    if (p.clone != kNoClone) {
+      const auto it = std::find(clones_.begin(), clones_.end(), p.clone);
+      if (it == clones_.end()) return false;
+      clone = static_cast<int>(it - clones_.begin());
+    }
+    pose_rows_[i] = clone < 0 ? 0 : mapEnd() + 3 * clone;
+    const Eigen::Vector3d xv = x_.segment<3>(pose_rows_[i]);
     // The innovation always from the current estimate; only H's linearisation point moves.
     Eigen::Vector2d z_hat =
         first ? model.predict(xv, x_.segment<2>(rows_[i]), p.kind)
               : model.predict(xv, x_.segment<2>(rows_[i]), p.kind, &hv_[i], &hm_[i]);
-    if (first) model.predict(xv, first_[idx], p.kind, &hv_[i], &hm_[i]);
+    if (first) {
+      model.predict(clone < 0 ? xv : Eigen::Vector3d(clone_first_[clone]), first_[idx], p.kind,
+                    &hv_[i], &hm_[i]);
+    }
     r_[i] = p.R;
     Eigen::Vector2d mean;
     Eigen::Matrix2d extra;
-    if (secondOrderTerms(idx, model, p.kind, &mean, &extra)) {
+    if (secondOrderTerms(idx, pose_rows_[i], model, p.kind, &mean, &extra)) {
       z_hat += mean;
       r_[i] += extra;
     }
@@ -225,7 +255,14 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   for (int i = 0; i < m; ++i) {
     auto col = pht.middleCols<2>(2 * i);
     const Eigen::Index r = rows_[i];
-    col.noalias() = P.leftCols<3>() * hv_[i].transpose();
+    const Eigen::Index c = pose_rows_[i];
+    if (c == 0) {
+      col.noalias() = P.leftCols<3>() * hv_[i].transpose();
+    } else {
+      // A clone's column, like a landmark's, from the current part (clones follow the map).
+      col.topRows(c).noalias() = P.block(c, 0, 3, c).transpose() * hv_[i].transpose();
+      col.bottomRows(n - c).noalias() = P.block(c, c, n - c, 3) * hv_[i].transpose();
+    }
     // Column r of P from the current part: row r of the lower triangle above the diagonal.
     col.topRows(r).noalias() += P.block(r, 0, 2, r).transpose() * hm_[i].transpose();
     col.bottomRows(n - r).noalias() += P.block(r, r, n - r, 2) * hm_[i].transpose();
@@ -235,7 +272,7 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   Eigen::Map<Eigen::MatrixXd> s(workspace(&s_, d * d), d, d);
   for (int i = 0; i < m; ++i) {
     for (int j = 0; j <= i; ++j) {
-      Eigen::Matrix2d b = hv_[i] * pht.block<3, 2>(0, 2 * j);
+      Eigen::Matrix2d b = hv_[i] * pht.block<3, 2>(pose_rows_[i], 2 * j);
       b.noalias() += hm_[i] * pht.block<2, 2>(rows_[i], 2 * j);
       if (i == j) {
         b += r_[i];
@@ -280,7 +317,7 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   const Eigen::Index a = 3 + k_;
   P.topLeftCorner(a, a).triangularView<Eigen::StrictlyUpper>() = P.topLeftCorner(a, a).transpose();
   P.block(0, a, a, n - a) = P.block(a, 0, n - a, a).transpose();
-  for (Eigen::Index r = a; r < n; r += 2) P(r, r + 1) = P(r + 1, r);
+  mirrorDiagonalBlocks();
   upper_stale_ = n > a;
   const double rank_flops = rankDowndateFlops(n, d);
   ++stats_.updates;
@@ -324,28 +361,58 @@ LandmarkId EkfSlam::addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d&
     Pll += extra;
   }
   Pll = 0.5 * (Pll + Pll.transpose()).eval();
+  if (clones_.empty()) {
+    x_.conservativeResize(n + 2);
+    x_.tail<2>() = m;
+    reserveCovariance(n + 2);
+    dim_ = n + 2;
+    auto P = this->P();
+    // cov(m, x) = Gv cov(xv, x): only the pose rows of P are needed.
+    P.block(n, 0, 2, n).noalias() = Gv * P.topLeftCorner(3, n);
+    P.block(0, n, n, 2) = P.block(n, 0, 2, n).transpose();
+    P.bottomRightCorner<2, 2>() = Pll;
+    return appendId(m);
+  }
+  const Eigen::MatrixXd cross = Gv * storedCovariance().topLeftCorner(3, n);
+  return appendLandmark(m, Pll, cross, m);
+}
 
-  x_.conservativeResize(n + 2);
-  x_.tail<2>() = m;
-  reserveCovariance(n + 2);
-  dim_ = n + 2;
-  auto P = this->P();
-  // cov(m, x) = Gv cov(xv, x): only the pose rows of P are needed.
-  P.block(n, 0, 2, n).noalias() = Gv * P.topLeftCorner(3, n);
-  P.block(0, n, n, 2) = P.block(n, 0, 2, n).transpose();
-  P.bottomRightCorner<2, 2>() = Pll;
-
+LandmarkId EkfSlam::appendId(const Eigen::Vector2d& first) {
   const LandmarkId id = next_id_++;
   index_of_[id] = static_cast<int>(ids_.size());
   ids_.push_back(id);
-  first_.push_back(m);
+  first_.push_back(first);
   return id;
+}
+
+LandmarkId EkfSlam::appendLandmark(const Eigen::Vector2d& m, const Eigen::Matrix2d& Pll,
+                                   const Eigen::MatrixXd& cross, const Eigen::Vector2d& first) {
+  // Before the clones: rows [at, at + 2) of the grown state.
+  const Eigen::Index at = mapEnd();
+  const Eigen::Index n = dim_;
+  openRows(at, 2);
+  x_.segment<2>(at) = m;
+  auto P = this->P();
+  P.block(at, 0, 2, at) = cross.leftCols(at);
+  P.block(0, at, at, 2) = cross.leftCols(at).transpose();
+  P.block(at, at + 2, 2, n - at) = cross.rightCols(n - at);
+  P.block(at + 2, at, n - at, 2) = cross.rightCols(n - at).transpose();
+  P.block<2, 2>(at, at) = Pll;
+  return appendId(first);
 }
 
 LandmarkId EkfSlam::insertLandmark(const Eigen::Vector2d& position, const Eigen::Matrix2d& cov,
                                    LandmarkId id) {
   if (id < 0 || contains(id)) id = next_id_;
   next_id_ = std::max(next_id_, id + 1);
+  if (!clones_.empty()) {
+    const LandmarkId next = next_id_;
+    next_id_ = id;
+    appendLandmark(position, 0.5 * (cov + cov.transpose()), Eigen::MatrixXd::Zero(2, dim_),
+                   position);
+    next_id_ = next;
+    return id;
+  }
   const Eigen::Index n = x_.size();
   x_.conservativeResize(n + 2);
   x_.tail<2>() = position;
@@ -379,6 +446,9 @@ void EkfSlam::setState(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covar
     }
     next = std::max(next, ids[k] + 1);
   }
+  clones_.clear();
+  clone_tags_.clear();
+  clone_first_.clear();
   x_ = mean;
   x_(2) = wrapAngle(x_(2));
   dim_ = 0;
@@ -394,28 +464,113 @@ void EkfSlam::setState(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covar
   for (std::size_t k = 0; k < ids.size(); ++k) first_[k] = landmark(static_cast<int>(k));
 }
 
-bool EkfSlam::removeLandmark(LandmarkId id) {
-  const int idx = indexOf(id);
-  if (idx < 0) return false;
-  const Eigen::Index n = x_.size();
-  const Eigen::Index r = stateRow(idx);
-  const Eigen::Index tail = n - r - 2;
-
-  // In place, no reallocation: rows below r move up by 2 in every column; columns right of
-  // r + 1 move left by 2. Columns are visited left to right, so nothing is overwritten before
-  // it has moved.
+void EkfSlam::closeRows(Eigen::Index at, Eigen::Index count) {
+  const Eigen::Index n = dim_;
+  const Eigen::Index tail = n - at - count;
+  // In place, no reallocation: rows below the gap move up in every column; columns right of it
+  // move left. Columns are visited left to right, so nothing is overwritten before it has moved.
   double* d = store_.data();
   const Eigen::Index ld = store_.rows();
   for (Eigen::Index c = 0; c < n; ++c) {
-    if (c == r || c == r + 1) continue;
+    if (c >= at && c < at + count) continue;
     const double* src = d + c * ld;
-    double* dst = d + (c < r ? c : c - 2) * ld;
-    if (dst != src) std::copy(src, src + r, dst);
-    std::copy(src + r + 2, src + n, dst + r);
+    double* dst = d + (c < at ? c : c - count) * ld;
+    if (dst != src) std::copy(src, src + at, dst);
+    std::copy(src + at + count, src + n, dst + at);
   }
-  dim_ = n - 2;
-  x_.segment(r, tail) = x_.tail(tail).eval();
-  x_.conservativeResize(n - 2);
+  dim_ = n - count;
+  x_.segment(at, tail) = x_.tail(tail).eval();
+  x_.conservativeResize(n - count);
+}
+
+void EkfSlam::openRows(Eigen::Index at, Eigen::Index count) {
+  const Eigen::Index n = dim_;
+  reserveCovariance(n + count);
+  x_.conservativeResize(n + count);
+  x_.segment(at + count, n - at) = x_.segment(at, n - at).eval();
+  x_.segment(at, count).setZero();
+  // Columns right to left, so nothing is overwritten before it has moved.
+  double* d = store_.data();
+  const Eigen::Index ld = store_.rows();
+  for (Eigen::Index c = n - 1; c >= 0; --c) {
+    double* src = d + c * ld;
+    double* dst = d + (c < at ? c : c + count) * ld;
+    std::copy_backward(src + at, src + n, dst + n + count);
+    if (dst != src) std::copy(src, src + at, dst);
+    std::fill(dst + at, dst + at + count, 0.0);
+  }
+  for (Eigen::Index c = at; c < at + count; ++c) std::fill(d + c * ld, d + c * ld + n + count, 0.0);
+  dim_ = n + count;
+}
+
+void EkfSlam::mirrorDiagonalBlocks() {
+  auto P = this->P();
+  const Eigen::Index map_end = mapEnd();
+  for (Eigen::Index r = 3 + k_; r < map_end; r += 2) P(r, r + 1) = P(r + 1, r);
+  for (Eigen::Index r = map_end; r < dim_; r += 3) {
+    P(r, r + 1) = P(r + 1, r);
+    P(r, r + 2) = P(r + 2, r);
+    P(r + 1, r + 2) = P(r + 2, r + 1);
+  }
+}
+
+CloneId EkfSlam::addClone(double tag) {
+  const Eigen::Index n = dim_;
+  openRows(n, 3);
+  x_.segment<3>(n) = x_.head<3>();
+  auto P = this->P();
+  // cov(clone, x) = cov(pose, x): the vehicle rows are current in every column.
+  P.block(n, 0, 3, n) = P.topLeftCorner(3, n);
+  P.block(0, n, n, 3) = P.topLeftCorner(3, n).transpose();
+  P.block<3, 3>(n, n) = P.topLeftCorner<3, 3>();
+  const CloneId id = next_clone_++;
+  clones_.push_back(id);
+  clone_tags_.push_back(tag);
+  clone_first_.push_back(x_.head<3>());
+  return id;
+}
+
+CloneId EkfSlam::findClone(double tag) const {
+  for (std::size_t j = clones_.size(); j-- > 0;) {
+    if (clone_tags_[j] == tag) return clones_[j];
+  }
+  return kNoClone;
+}
+
+int EkfSlam::cloneRow(CloneId id) const {
+  const auto it = std::find(clones_.begin(), clones_.end(), id);
+  return it == clones_.end() ? -1 : mapEnd() + 3 * static_cast<int>(it - clones_.begin());
+}
+
+Eigen::Vector3d EkfSlam::clonePose(CloneId id) const {
+  const int r = cloneRow(id);
+  return r < 0 ? Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())
+               : Eigen::Vector3d(x_.segment<3>(r));
+}
+
+bool EkfSlam::removeClone(CloneId id) {
+  const auto it = std::find(clones_.begin(), clones_.end(), id);
+  if (it == clones_.end()) return false;
+  const int j = static_cast<int>(it - clones_.begin());
+  closeRows(mapEnd() + 3 * j, 3);
+  clones_.erase(it);
+  clone_tags_.erase(clone_tags_.begin() + j);
+  clone_first_.erase(clone_first_.begin() + j);
+  return true;
+}
+
+void EkfSlam::removeAllClones() {
+  if (clones_.empty()) return;
+  closeRows(mapEnd(), dim_ - mapEnd());
+  clones_.clear();
+  clone_tags_.clear();
+  clone_first_.clear();
+}
+
+bool EkfSlam::removeLandmark(LandmarkId id) {
+  const int idx = indexOf(id);
+  if (idx < 0) return false;
+  closeRows(stateRow(idx), 2);
 
   ids_.erase(ids_.begin() + idx);
   first_.erase(first_.begin() + idx);

@@ -31,6 +31,8 @@ int MapUpdater::sanitise(std::size_t n, AssociationResult* r) const {
     r->resize(n);  // unusable: everything rejected, nothing removed
     return static_cast<int>(n) + 1;
   }
+  // Feature keys are optional: without them nothing is kept back.
+  if (r->feature.size() != n) r->feature.assign(n, kNoFeature);
   for (std::size_t i = 0; i < n; ++i) {
     switch (r->decision[i]) {
       case Decision::kPaired:
@@ -119,6 +121,11 @@ void MapUpdater::apply(DataAssociation& associator, const std::vector<Pairing>& 
     result.landmark[i] = id;
     book_.created(id, obs[i].descriptor, report->scan);
   }
+  // ... and their earlier sightings, against the poses they were taken from.
+  if (delayed_.enabled()) {
+    const Eigen::Vector3d before = ekf.pose();
+    if (delayed_.admit(report)) associator.poseCorrected(before, ekf.pose());
+  }
 
   // 3. Removals.
   for (const LandmarkId id : result.remove) {
@@ -128,6 +135,8 @@ void MapUpdater::apply(DataAssociation& associator, const std::vector<Pairing>& 
     }
   }
   index_.sync(ekf);
+  // 4. This scan's sightings of features not admitted yet, against a clone of its pose.
+  if (delayed_.enabled()) delayed_.keep(*report);
   report->update_s = secondsSince(t0);
 }
 

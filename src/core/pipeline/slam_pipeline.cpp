@@ -1,11 +1,11 @@
 // The SLAM data flow, orchestrated (slam_pipeline.h): each step is its own class.
 
-#include "ekf_slam/core/common/stopwatch.h"
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
 #include <algorithm>
 #include <chrono>
 #include <stdexcept>
 #include <utility>
+#include "ekf_slam/core/common/stopwatch.h"
 
 #include "ekf_slam/core/feature_extraction/scan_geometry.h"
 #include "ekf_slam/core/pipeline/map_file.h"
@@ -44,9 +44,10 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
       filter_(config_.filter == "cekf", compressedParams(config_)),
       index_(config_.index_cell_size),
       book_(config_),
+      delayed_(config_, filter_, model_, counters_),
       motion_(config_, filter_.ekf(), counters_),
       observations_(config_, counters_),
-      mapper_(config_, filter_, index_, model_, book_, counters_),
+      mapper_(config_, filter_, index_, model_, book_, delayed_, counters_),
       monitor_(config_, filter_.ekf(), index_, model_, book_),
       recovery_(config_, filter_, motion_, model_, book_, counters_) {
   if (!associator_) throw std::invalid_argument("SlamPipeline: no associator given");
@@ -67,6 +68,7 @@ void SlamPipeline::reset() {
   index_.sync(filter_.ekf());
   book_.clear();
   book_.resetAge();
+  delayed_.clear();
   associator_->reset();
   motion_.reset();
   observations_.reset();
@@ -284,6 +286,8 @@ void SlamPipeline::goLost(ScanReport* report) {
 }
 
 void SlamPipeline::enterLost(bool pose_unknown) {
+  // Sightings kept back were taken from poses now in doubt.
+  delayed_.clear();
   monitor_.restart();
   recovery_.enterLost(mapLandmarks(), pose_unknown);
 }
@@ -355,6 +359,7 @@ void SlamPipeline::loadMap(const std::string& path, bool reset_pose, bool unknow
   ekf.reset(pose, pose_cov, correction);
   filter_.restart();
   book_.clear();
+  delayed_.clear();
   for (const MapEntry& e : entries) {
     ekf.insertLandmark(e.position, e.cov, e.id);
     book_.loaded(e.id, e.info);

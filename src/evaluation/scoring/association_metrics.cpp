@@ -117,7 +117,10 @@ AssociationCounts AssociationScorer::addScan(const std::vector<LandmarkId>& trut
       o = mapped ? Outcome::kFalseNegative : Outcome::kTrueNegative;
     }
     scan.add(o);
-    if (tally && o == Outcome::kTruePositive) ++tally->true_positives;
+    if (tally && o == Outcome::kTruePositive) {
+      ++tally->true_positives;
+      ++tally->used;
+    }
     if (outcomes) (*outcomes)[i] = o;
   }
 
@@ -126,6 +129,7 @@ AssociationCounts AssociationScorer::addScan(const std::vector<LandmarkId>& trut
     const bool created = decision[i] == Decision::kNew && landmark[i] != kNoLandmark;
     landmarks_created_ += created;
     if (decision[i] == Decision::kPaired || created) vote(landmark[i], truth[i]);
+    if (created) countUsed(landmark[i], truth[i]);
   }
   for (LandmarkId id : removed) {
     const auto it = tracks_.find(id);
@@ -135,6 +139,20 @@ AssociationCounts AssociationScorer::addScan(const std::vector<LandmarkId>& trut
   }
   counts_ += scan;
   return scan;
+}
+
+bool AssociationScorer::represents(LandmarkId id, LandmarkId truth) const {
+  const auto it = holders_.find(truth);
+  return truth >= 0 && it != holders_.end() && !it->second.empty() && *it->second.begin() == id;
+}
+
+void AssociationScorer::countUsed(LandmarkId id, LandmarkId truth) {
+  if (represents(id, truth)) ++seen_[truth].used;
+}
+
+void AssociationScorer::addDelayedSightings(
+    const std::vector<std::pair<LandmarkId, LandmarkId>>& landmark_truth) {
+  for (const auto& [id, truth] : landmark_truth) countUsed(id, truth);
 }
 
 void AssociationScorer::setIdentity(LandmarkId id, Track* t, LandmarkId truth, bool is_new) {
@@ -209,7 +227,7 @@ MapScore AssociationScorer::mapScore() const {
   // Landmark level: held exactly once = correct; recall over the landmarks seen often enough
   // to be mapped; coverage over every observation of the landmarks the map holds.
   s.landmarks_created = landmarks_created_;
-  std::uint64_t observations = 0, paired = 0;
+  std::uint64_t observations = 0, paired = 0, used = 0;
   for (const auto& [truth, tally] : seen_) {
     const auto it = holders_.find(truth);
     const std::size_t n = it == holders_.end() ? 0 : it->second.size();
@@ -220,12 +238,14 @@ MapScore AssociationScorer::mapScore() const {
     if (n > 0) {
       observations += tally.observations;
       paired += tally.true_positives;
+      used += tally.used;
     }
   }
   const auto ratio = [](double a, double b) { return b > 0 ? a / b : 1.0; };
   s.landmark_precision = ratio(sole_holders, s.landmarks);
   s.landmark_recall = ratio(s.true_landmarks_found, s.true_landmarks_findable);
   s.pairing_coverage = ratio(paired, observations);
+  s.sightings_used = ratio(used, observations);
   return s;
 }
 

@@ -375,7 +375,8 @@ OfflineSummary writeOfflineReport(const OfflineOptions& o, const BagContents& ba
   j["relocaliser"] = loop.relocaliser;
   j["lost_at_end"] = pipeline.lost();
   j["relocalisation_us_median"] = number(quantile(record.relocalisation_us, 0.5));
-  // The whole cost of recovery, probes included (docs/notes/2026-11-to-12-relocalisation-record.md, "Victoria Park with --kidnap").
+  // The whole cost of recovery, probes included (docs/notes/2026-11-to-12-relocalisation-record.md,
+  // "Victoria Park with --kidnap").
   j["relocalisation_time_s"] =
       1e-6 * std::accumulate(record.relocalisation_us.begin(), record.relocalisation_us.end(), 0.0);
   nlohmann::json events = nlohmann::json::array();
@@ -421,6 +422,7 @@ OfflineSummary writeOfflineReport(const OfflineOptions& o, const BagContents& ba
                   {"landmark_precision", m.map.landmark_precision},
                   {"landmark_recall", m.map.landmark_recall},
                   {"pairing_coverage", m.map.pairing_coverage},
+                  {"sightings_used", m.map.sightings_used},
                   {"pose_rmse_m", number(m.pose_rmse_m)},
                   {"heading_rmse_rad", number(m.heading_rmse_rad)},
                   {"pose_ate_aligned_m", number(m.pose_ate_aligned_m)},

@@ -31,10 +31,22 @@ enum class Decision : std::uint8_t {
 };
 const char* toString(Decision d);
 
+/// An associator's name for one feature it tracks outside the map (AssociationResult::feature).
+using FeatureKey = std::int64_t;
+constexpr FeatureKey kNoFeature = -1;
+
 struct AssociationResult {
   std::vector<Decision> decision;    ///< one per observation
   std::vector<LandmarkId> landmark;  ///< one per observation; kNoLandmark unless kPaired
   std::vector<LandmarkId> remove;    ///< map landmarks to delete (e.g. DJNN's exit rule)
+  /// One per observation: for kTentative, the feature it is a sighting of; for kNew, the feature
+  /// it admits (kNoFeature: none, or the associator does not say). The pipeline keeps a feature's
+  /// sightings against clones of their poses and applies them when the feature is admitted
+  /// (core/pipeline/delayed_sightings.h); a feature's key must change when its earlier sightings
+  /// stop counting (e.g. DJNN's static test restarts it).
+  std::vector<FeatureKey> feature;
+  /// Features no longer tracked (dropped, restarted or admitted): their sightings are let go.
+  std::vector<FeatureKey> ended_features;
   /// Observations the associator recognised as a map landmark without the pose (e.g. RRWSC's
   /// graph matching) that the filter gate then refused: evidence that the pose, not the
   /// observation, is wrong (SlamPipeline's lost rule 3, docs/relocalisation.md). Associators that
@@ -44,7 +56,9 @@ struct AssociationResult {
   void resize(std::size_t n) {
     decision.assign(n, Decision::kRejected);
     landmark.assign(n, kNoLandmark);
+    feature.assign(n, kNoFeature);
     remove.clear();
+    ended_features.clear();
     gate_refused = 0;
   }
   void pair(std::size_t obs, LandmarkId id) {

@@ -1,11 +1,17 @@
 // EKF-SLAM state: vehicle pose plus 2D point landmarks, dense covariance. ROS-free (Eigen only).
 //
-// State layout: [x, y, yaw, c_1 .. c_k, m_0x, m_0y, m_1x, m_1y, ...]. The k <= 2 odometry
-// correction states (AEKF, odometry_correction.h; k = 0 by default) sit between the pose and the
-// map, so landmark k occupies rows stateRow(k) = 3 + k + 2 index. Landmarks carry stable ids that
-// survive removals; their slot in the state vector (index) may change when another landmark is
-// removed. The observation model never involves the correction states: the associators see the
-// pose, the landmarks and their cross-covariances exactly as without them.
+// State layout: [x, y, yaw, c_1 .. c_k, m_0x, m_0y, m_1x, m_1y, ..., clones]. The k <= 2
+// odometry correction states (AEKF, odometry_correction.h; k = 0 by default) sit between the pose
+// and the map, so landmark k occupies rows stateRow(k) = 3 + k + 2 index. Landmarks carry stable
+// ids that survive removals; their slot in the state vector (index) may change when another
+// landmark is removed. The observation model never involves the correction states: the associators
+// see the pose, the landmarks and their cross-covariances exactly as without them.
+//
+// Pose clones (stochastic cloning, as in the MSCKF) follow the map: copies of the pose at an
+// earlier scan, 3 rows each, so that an observation kept back at that scan can still be applied
+// against the pose it was taken from (core/pipeline/delayed_sightings.h). They do not move in
+// predict() and change only through their correlations; removing one is its exact
+// marginalisation. None exist unless addClone() is called.
 #pragma once
 
 #include <cstdint>
@@ -26,6 +32,9 @@ namespace ekf_slam {
 
 using LandmarkId = std::int64_t;
 constexpr LandmarkId kNoLandmark = -1;
+/// A pose clone's stable id (EkfSlam::addClone).
+using CloneId = std::int64_t;
+constexpr CloneId kNoClone = -1;
 
 /// One observation paired with a map landmark, for EkfSlam::update.
 struct Pairing {
@@ -33,6 +42,8 @@ struct Pairing {
   Eigen::Vector2d z;  ///< (range, bearing) or (x, y) in the sensor frame, as `kind` says
   Eigen::Matrix2d R;  ///< measurement noise
   MeasurementKind kind = MeasurementKind::kRangeBearing;
+  /// The pose z was taken from: the current one (kNoClone) or an earlier scan's clone.
+  CloneId clone = kNoClone;
 };
 
 /// Where the filter evaluates its Jacobians (docs/consistency.md).
@@ -65,8 +76,8 @@ class EkfSlam {
  public:
   EkfSlam();
 
-  /// Drops every landmark and sets the pose and its covariance, and the odometry correction
-  /// states (none by default; uncorrelated with the pose). Ids restart at 0.
+  /// Drops every landmark and clone and sets the pose and its covariance, and the odometry
+  /// correction states (none by default; uncorrelated with the pose). Ids restart at 0.
   void reset(const Eigen::Vector3d& pose = Eigen::Vector3d::Zero(),
              const Eigen::Matrix3d& pose_cov = Eigen::Matrix3d::Zero(),
              const CorrectionPrior& correction = CorrectionPrior());
@@ -117,6 +128,8 @@ class EkfSlam {
   bool contains(LandmarkId id) const { return indexOf(id) >= 0; }
   /// Row of the landmark's x in the state vector (3 + k + 2 * index).
   int stateRow(int index) const { return 3 + k_ + 2 * index; }
+  /// Rows of the vehicle and the map: the clones start here.
+  int mapEnd() const { return 3 + k_ + 2 * static_cast<int>(ids_.size()); }
   Eigen::Vector2d landmark(int index) const { return x_.segment<2>(stateRow(index)); }
   Eigen::Matrix2d landmarkCovariance(int index) const {
     return storedCovariance().block<2, 2>(stateRow(index), stateRow(index));
@@ -137,7 +150,12 @@ class EkfSlam {
   /// covariance; false (nothing to add) otherwise. The associators' gates use it too, so that
   /// they and the update agree on S.
   bool secondOrderTerms(int index, const RangeBearingModel& model, MeasurementKind kind,
-                        Eigen::Vector2d* mean, Eigen::Matrix2d* extra) const;
+                        Eigen::Vector2d* mean, Eigen::Matrix2d* extra) const {
+    return secondOrderTerms(index, 0, model, kind, mean, extra);
+  }
+  /// The same seen from the pose at state row `pose_row` (0, or a clone's row).
+  bool secondOrderTerms(int index, int pose_row, const RangeBearingModel& model,
+                        MeasurementKind kind, Eigen::Vector2d* mean, Eigen::Matrix2d* extra) const;
   /// The landmark's first estimate: its value when added, inserted or set (setState).
   const Eigen::Vector2d& firstEstimate(int index) const { return first_[index]; }
   /// The position the pose was last predicted to (the prior: before any update since).
@@ -178,10 +196,26 @@ class EkfSlam {
                             LandmarkId id = kNoLandmark);
 
   /// Replaces the whole state (mean 3 + k + 2n with the current k, covariance, n ids, all
-  /// distinct and >= 0), e.g. to replay a recorded association problem. Throws
+  /// distinct and >= 0; no clones), e.g. to replay a recorded association problem. Throws
   /// std::invalid_argument on inconsistent sizes.
   void setState(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance,
                 const std::vector<LandmarkId>& ids);
+
+  // --- pose clones -------------------------------------------------------------------------
+  /// Appends a copy of the current pose (mean, covariance and every cross-covariance): O(n).
+  /// `tag` names it for findClone (the pipeline uses the scan's stamp).
+  CloneId addClone(double tag = 0.0);
+  /// The newest clone with this tag, or kNoClone.
+  CloneId findClone(double tag) const;
+  /// Marginalises a clone out (deletes its rows and columns). False if the id is unknown.
+  bool removeClone(CloneId id);
+  void removeAllClones();
+  std::size_t numClones() const { return clones_.size(); }
+  /// Clone ids in state order.
+  const std::vector<CloneId>& cloneIds() const { return clones_; }
+  /// Row of the clone's x, or -1 when the id is unknown.
+  int cloneRow(CloneId id) const;
+  Eigen::Vector3d clonePose(CloneId id) const;
 
   /// Moves the pose estimate without touching any covariance: an unmodelled jump (a kidnap).
   void setPose(const Eigen::Vector3d& pose) {
@@ -214,6 +248,19 @@ class EkfSlam {
   void reserveCovariance(Eigen::Index n);
   /// Copies the lower triangle onto the upper one (the part the update leaves stale).
   void mirrorLower() const;
+  /// Inserts `count` zero rows and columns before row `at` (the rows from `at` move down):
+  /// O(n (n - at)).
+  void openRows(Eigen::Index at, Eigen::Index count);
+  /// Deletes rows and columns [at, at + count): O(n (n - at)).
+  void closeRows(Eigen::Index at, Eigen::Index count);
+  /// Adds a landmark at the end of the map (before the clones) with mean m, covariance Pll and
+  /// cross-covariance `cross` (2 x n in the current layout).
+  LandmarkId appendLandmark(const Eigen::Vector2d& m, const Eigen::Matrix2d& Pll,
+                            const Eigen::MatrixXd& cross, const Eigen::Vector2d& first);
+  /// The next id for a landmark just placed at the end of the map, with its first estimate.
+  LandmarkId appendId(const Eigen::Vector2d& first);
+  /// Makes the upper half of each landmark's and clone's diagonal block current.
+  void mirrorDiagonalBlocks();
 
   Eigen::VectorXd x_;
   // P is the top-left dim_ x dim_ corner of store_. Mutable: covariance() completes the upper
@@ -224,6 +271,10 @@ class EkfSlam {
   std::vector<LandmarkId> ids_;
   std::unordered_map<LandmarkId, int> index_of_;
   LandmarkId next_id_ = 0;
+  std::vector<CloneId> clones_;  // in state order, after the map
+  std::vector<double> clone_tags_;
+  std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> clone_first_;
+  CloneId next_clone_ = 0;
   int k_ = 0;  // correction states
   Eigen::Vector2d c_lower_ = Eigen::Vector2d::Zero(), c_upper_ = Eigen::Vector2d::Zero();
   std::uint64_t clamps_ = 0, refusals_ = 0;
@@ -242,7 +293,7 @@ class EkfSlam {
   // P H^T then W = P H^T L^-T (N x d), S then its Cholesky factor (d x d), the innovation then
   // L^-1 v (d), the state correction (N), W copied in the rank downdate's tile order (N x d).
   std::vector<double> pht_, s_, v_, dx_, packed_w_;
-  std::vector<int> rows_;
+  std::vector<int> rows_, pose_rows_;
   std::vector<Matrix23d> hv_;
   std::vector<Eigen::Matrix2d, Eigen::aligned_allocator<Eigen::Matrix2d>> hm_;
   std::vector<Eigen::Matrix2d, Eigen::aligned_allocator<Eigen::Matrix2d>> r_;  // R (+ EKF2)

@@ -10,6 +10,7 @@
 #include "ekf_slam/core/filter/filter_backend.h"
 #include "ekf_slam/core/filter/landmark_index.h"
 #include "ekf_slam/core/filter/observation_model.h"
+#include "ekf_slam/core/pipeline/delayed_sightings.h"
 #include "ekf_slam/core/pipeline/landmark_book.h"
 #include "ekf_slam/core/pipeline/pipeline_config.h"
 #include "ekf_slam/core/pipeline/scan_report.h"
@@ -19,21 +20,24 @@ namespace ekf_slam {
 class MapUpdater {
  public:
   MapUpdater(const PipelineConfig& config, FilterBackend& filter, LandmarkIndex& index,
-             const RangeBearingModel& model, LandmarkBook& book, PipelineCounters& counters)
+             const RangeBearingModel& model, LandmarkBook& book, DelayedSightings& delayed,
+             PipelineCounters& counters)
       : config_(config),
         filter_(filter),
         index_(index),
         model_(model),
         book_(book),
+        delayed_(delayed),
         counters_(counters) {}
 
   /// The associator's decisions for report->observations on the predicted state, sanitised
   /// (report->association, association_s, invalid_decisions).
   void associate(DataAssociation& associator, double stamp, ScanReport* report);
   /// The update with the paired observations and `carried` (pairings of older scans carried into
-  /// this one), then the new landmarks, then the removals (report->nis, update_ok, removed,
-  /// update_s; kNew entries get the new landmark's id). In localization mode nothing is added or
-  /// removed (counted).
+  /// this one), then the new landmarks and their earlier sightings, then the removals
+  /// (report->nis, update_ok, delayed_sightings, removed, update_s; kNew entries get the new
+  /// landmark's id), then this scan's tentative sightings kept. In localization mode nothing is
+  /// added or removed (counted).
   void apply(DataAssociation& associator, const std::vector<Pairing>& carried, ScanReport* report);
   /// Removes these landmarks (a kidnap's recent ones), counted as discarded.
   void discard(const std::vector<LandmarkId>& ids, ScanReport* report);
@@ -47,6 +51,7 @@ class MapUpdater {
   LandmarkIndex& index_;
   const RangeBearingModel& model_;
   LandmarkBook& book_;
+  DelayedSightings& delayed_;
   PipelineCounters& counters_;
   std::vector<Pairing> pairings_;  // per-scan workspace
 };

@@ -142,6 +142,10 @@ struct PipelineConfig {
   /// spread that the first-order prediction misses for a landmark known poorly across the line of
   /// sight, in the update, the associators' gates and the initialisation.
   bool second_order_observations = false;
+  /// Apply an admitted feature's earlier sightings against clones of their poses
+  /// (core/pipeline/delayed_sightings.h; filter ekf, slam mode), keeping at most max_pose_clones.
+  bool delayed_sightings = true;
+  int max_pose_clones = 40;
 
   /// Throws ParameterError naming the first invalid setting.
   void validate() const;

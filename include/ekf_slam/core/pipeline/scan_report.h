@@ -40,6 +40,14 @@ void applyLostPath(const std::vector<LostPathPose>& path, std::size_t end, Stamp
   }
 }
 
+/// An earlier scan's sighting of a feature applied when the feature was admitted
+/// (core/pipeline/delayed_sightings.h).
+struct DelayedSighting {
+  std::uint32_t scan = 0;  ///< ScanReport::scan of the sighting
+  int observation = 0;     ///< its index in that scan's observations
+  LandmarkId landmark = kNoLandmark;
+};
+
 /// What happened in one scan.
 struct ScanReport {
   bool late = false;  ///< stamp was older than the filter: used time()
@@ -68,6 +76,11 @@ struct ScanReport {
   Eigen::Matrix3d motion_covariance = Eigen::Matrix3d::Zero();
   double nis = 0.0;  ///< of the batch update
   int nis_dof = 0;
+  /// The earlier sightings of this scan's new landmarks, applied in a second batch update, and
+  /// its NIS.
+  std::vector<DelayedSighting> delayed_sightings;
+  double delayed_nis = 0.0;
+  int delayed_nis_dof = 0;
   bool update_ok = true;  ///< false when the EKF rejected the update
 
   // Lost-robot recovery.
@@ -134,6 +147,11 @@ struct PipelineCounters {
   /// also in rejected_updates).
   std::uint64_t clamped_corrections = 0;
   std::uint64_t refused_correction_updates = 0;
+  /// Earlier sightings applied when their feature was admitted; batch updates of them the EKF
+  /// refused; sightings let go because their pose clone was the oldest past max_pose_clones.
+  std::uint64_t delayed_sightings = 0;
+  std::uint64_t rejected_delayed_updates = 0;
+  std::uint64_t dropped_sightings = 0;
 };
 
 }  // namespace ekf_slam

@@ -5,7 +5,8 @@
 //   scan     -> ObservationBuilder (filter chain, extractor, checks) -> observations
 //            -> lost?  Recovery (relocaliser) -> a fix -> applyFix (pose, pairings, lost path)
 //               else   MapUpdater::associate -> LostMonitor rule 3 -> MapUpdater::apply
-//                      (batch update, new landmarks, removals, LandmarkBook)
+//                      (batch update, new landmarks and their DelayedSightings, removals,
+//                      LandmarkBook; this scan's tentative sightings kept against a pose clone)
 //                      -> LostMonitor rules 1, 2, 4 -> lost, or a Recovery probe
 //            -> ScanReport (published by the node, written by the runner, scored by the bench)
 //
@@ -30,6 +31,7 @@
 #include "ekf_slam/core/filter/landmark_index.h"
 #include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/filter/odometry_correction.h"
+#include "ekf_slam/core/pipeline/delayed_sightings.h"
 #include "ekf_slam/core/pipeline/landmark_book.h"
 #include "ekf_slam/core/pipeline/lost_monitor.h"
 #include "ekf_slam/core/pipeline/map_updater.h"
@@ -198,6 +200,7 @@ class SlamPipeline {
   LandmarkIndex index_;
   RangeBearingModel model_;
   LandmarkBook book_;
+  DelayedSightings delayed_;
   mutable MotionPredictor motion_;
   ObservationBuilder observations_;
   MapUpdater mapper_;

@@ -77,6 +77,10 @@ struct MapScore {
   /// that landmark's representative (TP): withheld, tentative and wrongly paired ones all count
   /// against it. The observation that created a landmark counts too, so 1 is out of reach.
   double pairing_coverage = 1.0;
+  /// Share of the same observations that entered the filter on that representative: paired with
+  /// it (TP), created it, or applied when it was created (an earlier sighting kept back,
+  /// core/pipeline/delayed_sightings.h). The observations the filter's estimate rests on.
+  double sightings_used = 1.0;
 };
 
 /// A true landmark counts as findable (landmark recall) once observed this often.
@@ -100,6 +104,10 @@ class AssociationScorer {
                             std::vector<Outcome>* outcomes = nullptr) {
     return addScan(truth, result.decision, result.landmark, removed, outcomes);
   }
+
+  /// Earlier observations of sources `truth` applied to `landmark` when the last scan created it
+  /// (ScanReport::delayed_sightings): counted in MapScore::sightings_used.
+  void addDelayedSightings(const std::vector<std::pair<LandmarkId, LandmarkId>>& landmark_truth);
 
   /// A landmark that entered the map without a scored observation (e.g. a loaded map), with its
   /// known identity.
@@ -134,7 +142,11 @@ class AssociationScorer {
   struct TruthTally {
     std::uint32_t observations = 0;
     std::uint32_t true_positives = 0;
+    std::uint32_t used = 0;  ///< entered the filter on the landmark's representative
   };
+  /// The representative of `truth` (its oldest holder) is `id`.
+  bool represents(LandmarkId id, LandmarkId truth) const;
+  void countUsed(LandmarkId id, LandmarkId truth);
   std::unordered_map<LandmarkId, TruthTally> seen_;
   std::uint64_t landmarks_created_ = 0;
   AssociationCounts counts_;

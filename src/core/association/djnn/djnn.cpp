@@ -162,12 +162,14 @@ Eigen::Matrix2d DJNN::gateCovariance(const Eigen::Matrix2d& cov_obs, const Matri
   return follow_pose_.gateCovariance(cov_obs, G_pose, P_vv, lever_var);
 }
 
-bool DJNN::stillStatic(Tentative* t, const Sighting& s, const Eigen::Matrix2d& C, double stamp) {
-  return static_test_.stillStatic(t, s.pos, s.heading_lever, C, stamp);
+bool DJNN::stillStatic(const AssociationContext& ctx, int obs, Tentative* t, const Sighting& s,
+                       const Eigen::Matrix2d& C, double stamp) {
+  return static_test_.stillStatic(t, s.pos, s.heading_lever, C, stamp, &ctx, obs);
 }
 
 void DJNN::started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp) {
   static_test_.started(t, z, C, stamp);
+  t->history.clear();
 }
 
 void DJNN::dropping(int slot, bool stale) {
@@ -177,6 +179,7 @@ void DJNN::dropping(int slot, bool stale) {
 void DJNN::sighted(const AssociationContext& ctx, int slot, int obs, bool born) {
   Tentative& t = paper_.tentatives()[slot];
   if (born) t.held_birth = scan_.force_new[obs] == kForceHeld;
+  static_test_.record(ctx, obs, &t);
   remembered_.anchor(
       ctx, scan_, &t, [this](LandmarkId id) { return joint_.recentlyPaired(id, scan_.stamp); },
       paper_.tentativeGate());

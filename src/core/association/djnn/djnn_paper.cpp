@@ -105,6 +105,7 @@ void DjnnPaper::configure(const DjnnPaperParams& params, int max_evidence) {
 void DjnnPaper::reset() {
   evidence_.clear();
   tentatives_.clear();
+  ended_.clear();
 }
 
 int DjnnPaper::evidence(LandmarkId id) const {
@@ -375,6 +376,9 @@ void DjnnPaper::restartFeature(int slot, const Eigen::Vector2d& z, const Eigen::
                                double stamp, const Eigen::Vector2d& heading_lever,
                                FeatureRules* rules) {
   Tentative& t = tentatives_[slot];
+  // A new run of sightings: the earlier ones of a restarted feature no longer count.
+  if (t.key != kNoFeature) ended_.push_back(t.key);
+  t.key = next_key_++;
   t.cov = C;
   t.heading_lever = heading_lever;
   t.evidence = model_.bump(0.0, model_.step(true, C));  // seen now
@@ -389,8 +393,11 @@ void DjnnPaper::restartFeature(int slot, const Eigen::Vector2d& z, const Eigen::
 }
 
 void DjnnPaper::dropFeature(int slot, bool stale, FeatureRules* rules) {
-  if (!tentatives_[slot].alive) return;
+  Tentative& t = tentatives_[slot];
+  if (!t.alive) return;
   rules->dropping(slot, stale);
+  ended_.push_back(t.key);
+  t.key = kNoFeature;
   tentatives_.remove(slot);
 }
 
@@ -452,7 +459,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     Tentative& t = tentatives_[slot];
     const Eigen::Vector2d& z = seen[cnd.obs].pos;
     const Eigen::Matrix2d C = seen[cnd.obs].cov_obs + noise;
-    if (!rules->stillStatic(&t, seen[cnd.obs], C, stamp)) {
+    if (!rules->stillStatic(ctx, cnd.obs, &t, seen[cnd.obs], C, stamp)) {
       // Not one static point (a slow mover): its history is void; restart from this sighting.
       restartFeature(slot, z, C, stamp, seen[cnd.obs].heading_lever, rules);
       ++stats->static_restarts;
@@ -496,6 +503,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     rules->sighted(ctx, slot, i, born);
     const double t = tentatives_[slot].evidence;
     result->decision[i] = rules->decide(ctx, i, slot, t, t >= p_.admit_evidence - kEvidenceEps);
+    result->feature[i] = tentatives_[slot].key;
     if (result->decision[i] == Decision::kNew) {
       dropFeature(slot, false, rules);  // now the pipeline's landmark; its T in landmarkAdded()
       ++stats->admitted;
@@ -513,6 +521,8 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
       }
     }
   }
+  result->ended_features.insert(result->ended_features.end(), ended_.begin(), ended_.end());
+  ended_.clear();
 }
 
 }  // namespace ekf_slam

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Cholesky>
 #include <Eigen/LU>
 
 namespace ekf_slam {
@@ -18,7 +19,8 @@ void StaticTest::read(const ParameterReader& r) {
 
 void StaticTest::configure(int admit_evidence) {
   admit_evidence_ = admit_evidence;
-  static_gate_ = Chi2Table(p_.static_probability, 2 * std::max(admit_evidence, 2));
+  static_gate_ =
+      Chi2Table(p_.static_probability, 2 * std::max({admit_evidence, 2, kMaxJointSightings}));
   velocity_gate_ = chi2Quantile(p_.static_probability, 2);
   baseline_information_ = 0.0;
   if (p_.static_min_speed > 0.0) {
@@ -44,7 +46,7 @@ Eigen::Matrix2d StaticTest::sightingNoise() const {
 
 bool StaticTest::stillStatic(Tentative* t, const Eigen::Vector2d& z,
                              const Eigen::Vector2d& heading_lever, const Eigen::Matrix2d& C,
-                             double stamp) const {
+                             double stamp, const AssociationContext* ctx, int obs) const {
   if (!p_.static_test) return true;
   // Recursive least-squares residual of the sightings about one static point: the new
   // sighting's normalised distance to the fused position of the earlier ones.
@@ -55,6 +57,10 @@ bool StaticTest::stillStatic(Tentative* t, const Eigen::Vector2d& z,
   t->residual += e.dot((t->cov + C + heading_var_ * dl * dl.transpose()).inverse() * e);
   ++t->sightings;
   bool moving = t->residual > static_gate_(2 * (t->sightings - 1));
+  double joint = 0.0;
+  int dof = 0;
+  if (ctx != nullptr && jointStatistic(*ctx, *t, obs, &joint, &dof))
+    moving = joint > static_gate_(dof);
   if (p_.static_min_speed > 0.0 && !moving) {
     // Against a constant velocity (2 dof) rather than any scatter (2 (k - 1) dof): the
     // stronger test for an object moving steadily.
@@ -64,6 +70,78 @@ bool StaticTest::stillStatic(Tentative* t, const Eigen::Vector2d& z,
     moving = trackVelocity(*t, &J, &v2) && v2 > velocity_gate_;
   }
   return !moving;
+}
+
+void StaticTest::record(const AssociationContext& ctx, int obs, Tentative* t) const {
+  if (!p_.static_test) return;
+  const Observation& o = ctx.observations()[obs];
+  if (static_cast<int>(t->history.size()) >= kMaxJointSightings)
+    t->history.erase(t->history.begin());
+  t->history.push_back({ctx.stamp(), o.z, o.R, o.kind});
+}
+
+namespace {
+
+// cov(pose at row a, pose at row b) from the current part of the stored covariance: the lower
+// triangle, and each pose's (and clone's) own 3 x 3 block.
+Eigen::Matrix3d poseBlock(const ConstMatrixView& P, int a, int b) {
+  return a >= b ? Eigen::Matrix3d(P.block<3, 3>(a, b))
+                : Eigen::Matrix3d(P.block<3, 3>(b, a).transpose());
+}
+
+}  // namespace
+
+bool StaticTest::jointStatistic(const AssociationContext& ctx, const Tentative& t, int obs,
+                                double* statistic, int* dof) const {
+  const EkfSlam& ekf = ctx.ekf();
+  if (ekf.numClones() == 0 || obs < 0) return false;
+  struct Use {
+    int row;
+    Eigen::Vector2d z;
+    Eigen::Matrix2d R;
+    MeasurementKind kind;
+  };
+  std::vector<Use> uses;
+  for (const FeatureSighting& s : t.history) {
+    const CloneId c = ekf.findClone(s.stamp);
+    if (c != kNoClone) uses.push_back({ekf.cloneRow(c), s.z, s.R, s.kind});
+  }
+  if (uses.empty()) return false;
+  const Observation& o = ctx.observations()[obs];
+  uses.push_back({0, o.z, o.R, o.kind});
+  const int m = static_cast<int>(uses.size());
+  const ConstMatrixView P = ekf.storedCovariance();
+  Eigen::VectorXd y(2 * m);
+  std::vector<Matrix23d> Gx(m);
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(2 * m, 2 * m);
+  const Eigen::Matrix2d jitter = sightingNoise();
+  for (int k = 0; k < m; ++k) {
+    Eigen::Matrix2d Gz;
+    y.segment<2>(2 * k) = ctx.model().inverse(ekf.mean().segment<3>(uses[k].row), uses[k].z,
+                                              uses[k].kind, &Gx[k], &Gz);
+    S.block<2, 2>(2 * k, 2 * k) = Gz * uses[k].R * Gz.transpose() + jitter;
+  }
+  for (int k = 0; k < m; ++k) {
+    for (int l = 0; l <= k; ++l) {
+      const Eigen::Matrix2d b = Gx[k] * poseBlock(P, uses[k].row, uses[l].row) * Gx[l].transpose();
+      S.block<2, 2>(2 * k, 2 * l) += b;
+      if (l != k) S.block<2, 2>(2 * l, 2 * k) += b.transpose();
+    }
+  }
+  if (!y.allFinite() || !S.allFinite()) return false;
+  const Eigen::LLT<Eigen::MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) return false;
+  // One point p for every sighting: y = A p + e, A = [I; I; ...]. The residual of the
+  // generalised least squares is y^T W y - (A^T W y)^T (A^T W A)^-1 (A^T W y), W = S^-1.
+  Eigen::MatrixXd A(2 * m, 2);
+  for (int k = 0; k < m; ++k) A.block<2, 2>(2 * k, 0).setIdentity();
+  const Eigen::MatrixXd WA = llt.solve(A);
+  const Eigen::VectorXd Wy = llt.solve(y);
+  const Eigen::Matrix2d M = A.transpose() * WA;
+  const Eigen::Vector2d b = A.transpose() * Wy;
+  *statistic = y.dot(Wy) - b.dot(M.ldlt().solve(b));
+  *dof = 2 * (m - 1);
+  return std::isfinite(*statistic);
 }
 
 void StaticTest::started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,

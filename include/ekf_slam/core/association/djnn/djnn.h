@@ -85,8 +85,8 @@ class DJNN : public DataAssociation, private FeatureRules {
   Eigen::Matrix2d gateCovariance(const Eigen::Matrix2d& cov_obs, const Matrix23d& G_pose,
                                  const Eigen::Matrix3d& P_vv, double* lever_var) const override;
   Eigen::Matrix2d sightingNoise() const override { return static_test_.sightingNoise(); }
-  bool stillStatic(Tentative* t, const Sighting& s, const Eigen::Matrix2d& C,
-                   double stamp) override;
+  bool stillStatic(const AssociationContext& ctx, int obs, Tentative* t, const Sighting& s,
+                   const Eigen::Matrix2d& C, double stamp) override;
   void started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
                double stamp) override;
   void dropping(int slot, bool stale) override;

@@ -129,10 +129,10 @@ class FeatureRules {
                                          const Eigen::Matrix3d& P_vv, double* lever_var) const = 0;
   /// Noise added to each sighting for the feature's fusion (the paper: none).
   virtual Eigen::Matrix2d sightingNoise() const = 0;
-  /// A sighting `s` (noise C) of feature t: false when it shows t is no static point, which then
-  /// restarts from this sighting (the paper: always true).
-  virtual bool stillStatic(Tentative* t, const Sighting& s, const Eigen::Matrix2d& C,
-                           double stamp) = 0;
+  /// A sighting `s` (observation `obs`, noise C) of feature t: false when it shows t is no
+  /// static point, which then restarts from this sighting (the paper: always true).
+  virtual bool stillStatic(const AssociationContext& ctx, int obs, Tentative* t, const Sighting& s,
+                           const Eigen::Matrix2d& C, double stamp) = 0;
   /// Feature t (re)starts from sighting z (noise C).
   virtual void started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
                        double stamp) = 0;
@@ -184,7 +184,8 @@ class DjnnPaper {
                         AssociationResult* result, DjnnStats* stats);
   /// 4b. The features not in the map: the eligible unpaired observations matched one-to-one to
   /// tentative features (closest first), fused, counted; missed features counted down and
-  /// dropped; decisions (kNew at admission, else kTentative); stale features swept.
+  /// dropped; decisions (kNew at admission, else kTentative) with their feature keys; stale
+  /// features swept; the keys that ended (result->ended_features).
   void countFeatureEvidence(const AssociationContext& ctx, LocalScan* scan,
                             AssociationResult* result, FeatureRules* rules, DjnnStats* stats);
 
@@ -220,6 +221,8 @@ class DjnnPaper {
   double penalty_radial_ = 0.0, penalty_lateral_ = 0.0;
   std::unordered_map<LandmarkId, double> evidence_;
   TentativeSet tentatives_;
+  FeatureKey next_key_ = 0;
+  std::vector<FeatureKey> ended_;  // keys that ended since the last countFeatureEvidence
   // Per-scan scratch.
   std::vector<int> tent_near_;
   std::vector<char> tent_hit_;

@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "ekf_slam/core/association/association_context.h"
 #include "ekf_slam/core/association/djnn/tentative_set.h"
 #include "ekf_slam/core/common/chi2.h"
 #include "ekf_slam/core/common/parameters.h"
@@ -33,9 +34,24 @@ class StaticTest {
   void beginScan(const Eigen::Matrix3d& P_vv);
   /// Noise added to each sighting (static_jitter).
   Eigen::Matrix2d sightingNoise() const;
-  /// A sighting z (noise C, heading lever) of feature t: false when t is no static point.
+  /// Sightings kept per feature for the joint test.
+  static constexpr int kMaxJointSightings = 12;
+
+  /// A sighting z (noise C, heading lever) of feature t: false when t is no static point. With
+  /// `ctx`, observation `obs` and pose clones of t's earlier sightings in the filter
+  /// (core/pipeline/delayed_sightings.h), the joint test decides; else the recursive one.
   bool stillStatic(Tentative* t, const Eigen::Vector2d& z, const Eigen::Vector2d& heading_lever,
-                   const Eigen::Matrix2d& C, double stamp) const;
+                   const Eigen::Matrix2d& C, double stamp, const AssociationContext* ctx = nullptr,
+                   int obs = -1) const;
+  /// Keeps observation `obs` of this scan as t's latest sighting (the joint test's history).
+  void record(const AssociationContext& ctx, int obs, Tentative* t) const;
+  /// The joint test's statistic: t's earlier sightings that have a pose clone and observation
+  /// `obs` at the current pose, their positions from the poses' current estimates, about one
+  /// static point, by generalised least squares with the poses' joint covariance (their
+  /// correlations cancel the common pose error; each sighting's noise G_z R G_z^T plus
+  /// static_jitter). *dof = 2 (m - 1) for m sightings; false when fewer than two.
+  bool jointStatistic(const AssociationContext& ctx, const Tentative& t, int obs, double* statistic,
+                      int* dof) const;
   /// Feature t (re)starts from sighting z.
   void started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
                double stamp) const;

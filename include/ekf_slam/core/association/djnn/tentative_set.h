@@ -10,9 +10,19 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/filter/ekf_slam.h"  // LandmarkId
+#include "ekf_slam/core/association/data_association.h"  // FeatureKey
+#include "ekf_slam/core/filter/ekf_slam.h"               // LandmarkId
 
 namespace ekf_slam {
+
+/// One sighting of a tentative feature as measured, for the static test against the poses it was
+/// taken from (StaticTest, pose clones).
+struct FeatureSighting {
+  double stamp = 0.0;
+  Eigen::Vector2d z = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d R = Eigen::Matrix2d::Zero();
+  MeasurementKind kind = MeasurementKind::kRangeBearing;
+};
 
 /// One tentative feature. The fields past `evidence` serve the extensions (static test, velocity
 /// track, remembered features); the paper's algorithm reads position, cov, evidence, last_seen.
@@ -25,6 +35,8 @@ struct Tentative {
   double evidence = 0.0;
   double last_seen = 0.0;
   bool alive = false;
+  /// The run of sightings since the last (re)start: AssociationResult::feature.
+  FeatureKey key = kNoFeature;
   int sightings = 0;      ///< fused into position since the last (re)start (static test)
   double residual = 0.0;  ///< sum of normalised residuals of the sightings (static test)
   /// Constant-velocity fit of the sightings since the last (re)start (static_min_speed):
@@ -38,6 +50,9 @@ struct Tentative {
   Eigen::Vector2d anchor_offset = Eigen::Vector2d::Zero();
   Eigen::Matrix2d anchor_cov = Eigen::Matrix2d::Zero();
   bool held_birth = false;  ///< started by an observation the joint decision held
+  /// The latest sightings since the last (re)start, oldest first (at most
+  /// StaticTest::kMaxJointSightings).
+  std::vector<FeatureSighting> history;
 };
 
 class TentativeSet {

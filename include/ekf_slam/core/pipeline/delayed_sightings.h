@@ -1,0 +1,68 @@
+// No sighting wasted (docs/djnn.md, "Delayed sightings"): an associator that waits for several
+// sightings before it admits a feature (DJNN's evidence counter, which keeps movers out of the
+// map) marks them kTentative with a feature key. Each such scan clones the pose into the state
+// (EkfSlam::addClone), and the sightings are kept with the clone of the pose they were taken
+// from. When the feature is admitted, the landmark is created from its last sighting as before
+// and the earlier ones are applied in one batch update against their clones; a feature that is
+// dropped only lets its clones go, which leaves the state exactly as if it had never been seen.
+// The clones cost 3 state rows each: at most max_pose_clones are kept (the oldest go first).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/core/filter/filter_backend.h"
+#include "ekf_slam/core/filter/observation_model.h"
+#include "ekf_slam/core/pipeline/pipeline_config.h"
+#include "ekf_slam/core/pipeline/scan_report.h"
+
+namespace ekf_slam {
+
+class DelayedSightings {
+ public:
+  DelayedSightings(const PipelineConfig& config, FilterBackend& filter,
+                   const RangeBearingModel& model, PipelineCounters& counters)
+      : config_(config), filter_(filter), model_(model), counters_(counters) {}
+
+  /// On: delayed_sightings, the full EKF (the compressed one keeps no clones) and slam mode.
+  bool enabled() const;
+  /// After the scan's update and its new landmarks (kNew entries carry their ids): every new
+  /// landmark's earlier sightings in one batch update against their clones
+  /// (report->delayed_sightings, delayed_nis). True when the state changed.
+  bool admit(ScanReport* report);
+  /// Keeps this scan's sightings of tentative features against a clone of the current pose, lets
+  /// the ended features go, and drops the oldest clones beyond max_pose_clones.
+  void keep(const ScanReport& report);
+  /// Lets every sighting and clone go (reset, lost, a map loaded).
+  void clear();
+
+  std::size_t features() const { return features_.size(); }
+
+ private:
+  struct Kept {
+    CloneId clone;
+    std::uint32_t scan;
+    int observation;
+    Eigen::Vector2d z;
+    Eigen::Matrix2d R;
+    MeasurementKind kind;
+  };
+  void release(std::vector<Kept>* sightings);
+  void dropOldestClone();
+
+  const PipelineConfig& config_;
+  FilterBackend& filter_;
+  const RangeBearingModel& model_;
+  PipelineCounters& counters_;
+  std::unordered_map<FeatureKey, std::vector<Kept>> features_;
+  std::unordered_map<CloneId, int> uses_;  // sightings per clone
+  std::vector<Pairing> batch_;             // per-scan workspaces
+  std::vector<FeatureKey> admitted_;
+};
+
+}  // namespace ekf_slam

@@ -1,0 +1,211 @@
+// No sighting wasted (core/pipeline/delayed_sightings.h): the sightings an associator keeps back
+// before it admits a feature reach the filter when the feature is admitted, against the poses they
+// were taken from; a feature that is dropped leaves the state as if it had never been seen.
+#include <gtest/gtest.h>
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/pipeline/pipeline_config.h"
+#include "ekf_slam/core/pipeline/slam_pipeline.h"
+
+namespace ekf_slam {
+namespace {
+
+// Decisions from a function of the scan number and the context.
+class ScriptedAssociator : public DataAssociation {
+ public:
+  using Script = std::function<AssociationResult(int scan, const AssociationContext&)>;
+  explicit ScriptedAssociator(Script script) : script_(std::move(script)) {}
+  void configure(const ParameterSource&) override {}
+  std::string name() const override { return "Scripted"; }
+  AssociationResult associate(const AssociationContext& ctx) override {
+    return script_(scan_++, ctx);
+  }
+  void landmarkAdded(int obs, LandmarkId id) override { added[obs] = id; }
+  void reset() override { scan_ = 0; }
+  std::map<int, LandmarkId> added;
+
+ private:
+  Script script_;
+  int scan_ = 0;
+};
+
+// A straight drive at 1 m/s past two landmarks, seen as Cartesian (x, y) in the sensor frame with
+// a 2x2 noise; the heading is known exactly (no yaw noise), so the filter is linear and its
+// estimate depends only on which sightings it used, not on when.
+const Eigen::Vector2d kLandmarks[2] = {{6.0, 2.0}, {8.0, -3.0}};
+const Eigen::Vector2d kNoise[10] = {{0.05, -0.1}, {-0.08, 0.02}, {0.1, 0.06},   {-0.02, -0.07},
+                                    {0.03, 0.09}, {0.07, -0.04}, {-0.06, 0.05}, {0.0, 0.03},
+                                    {0.04, 0.0},  {-0.05, -0.05}};
+constexpr int kScans = 10;
+
+PipelineConfig linearConfig() {
+  MapParameterSource p(std::map<std::string, std::string>{{"twist_sigma_v", "0.1"},
+                                                          {"twist_sigma_v_per_v", "0"},
+                                                          {"twist_sigma_w", "0"},
+                                                          {"twist_sigma_w_per_v", "0"},
+                                                          {"max_observation_range", "100"},
+                                                          {"min_observation_range", "0"}});
+  return readPipelineConfig(p);
+}
+
+std::vector<Observation> sightings(int scan, bool with_second) {
+  const Eigen::Vector2d pose(1.0 * scan, 0.0);
+  std::vector<Observation> out;
+  for (int l = 0; l < (with_second ? 2 : 1); ++l) {
+    Observation o;
+    o.kind = MeasurementKind::kCartesian;
+    o.z = kLandmarks[l] - pose + (l == 0 ? 1.0 : -0.5) * kNoise[(scan + 3 * l) % 10];
+    o.R = Eigen::Vector2d(0.02, 0.05).asDiagonal();
+    o.R(0, 1) = o.R(1, 0) = 0.01;
+    out.push_back(o);
+  }
+  return out;
+}
+
+// Runs the drive; scan k's observations go through `pipeline` (the second landmark only when
+// `second(k)`); returns the largest clone count seen.
+std::size_t drive(SlamPipeline* pipeline, const std::function<bool(int)>& second) {
+  std::size_t clones = 0;
+  for (int k = 0; k < kScans; ++k) {
+    OdometryInput o;
+    o.stamp = k - 0.5;
+    o.twist = Eigen::Vector2d(1.0, 0.0);
+    pipeline->addOdometry(o);
+    pipeline->processObservations(k, sightings(k, second(k)));
+    clones = std::max(clones, pipeline->ekf().numClones());
+  }
+  return clones;
+}
+
+void expectSameState(const EkfSlam& a, const EkfSlam& b, double tol) {
+  ASSERT_EQ(a.numClones(), 0u);
+  ASSERT_EQ(b.numClones(), 0u);
+  ASSERT_EQ(a.mean().size(), b.mean().size());
+  EXPECT_LT((a.mean() - b.mean()).cwiseAbs().maxCoeff(), tol);
+  EXPECT_LT(
+      (Eigen::MatrixXd(a.covariance()) - Eigen::MatrixXd(b.covariance())).cwiseAbs().maxCoeff(),
+      tol);
+}
+
+// Landmark 0: new at scan 0, then paired. Landmark 1 (when present): tentative sightings of
+// feature 17 until scan `admit`, where it is admitted (kNew), then paired; admit < 0: its
+// feature is dropped at scan `-admit`.
+ScriptedAssociator::Script delayedScript(int admit, std::map<int, LandmarkId>* /*added*/) {
+  return [admit](int scan, const AssociationContext& ctx) {
+    AssociationResult r;
+    r.resize(ctx.numObservations());
+    if (scan == 0) {
+      r.decision[0] = Decision::kNew;
+    } else {
+      r.pair(0, 0);
+    }
+    if (ctx.numObservations() < 2) return r;
+    if (admit >= 0 && scan > admit) {
+      r.pair(1, 1);
+    } else if (scan == admit) {
+      r.decision[1] = Decision::kNew;
+      r.feature[1] = 17;
+      r.ended_features.push_back(17);
+    } else if (admit < 0 && scan == -admit) {
+      r.ended_features.push_back(17);  // dropped: this sighting is rejected
+    } else {
+      r.decision[1] = Decision::kTentative;
+      r.feature[1] = 17;
+    }
+    return r;
+  };
+}
+
+TEST(DelayedSightings, AnAdmittedFeatureUsesAllItsSightings) {
+  // Delayed: landmark 1 seen as a tentative feature at scans 0-5 and admitted at 6.
+  auto delayed_assoc = std::make_shared<ScriptedAssociator>(nullptr);
+  *delayed_assoc = ScriptedAssociator(delayedScript(6, &delayed_assoc->added));
+  SlamPipeline delayed(linearConfig(), delayed_assoc);
+  EXPECT_GE(drive(&delayed, [](int) { return true; }), 6u);
+  // At once: landmark 1 created at its first sighting and paired from then on.
+  auto now_assoc = std::make_shared<ScriptedAssociator>(nullptr);
+  *now_assoc = ScriptedAssociator(delayedScript(0, &now_assoc->added));
+  SlamPipeline now(linearConfig(), now_assoc);
+  drive(&now, [](int) { return true; });
+  expectSameState(delayed.ekf(), now.ekf(), 1e-9);
+  EXPECT_EQ(delayed.counters().delayed_sightings, 6u);
+
+  // The paper's admission (from the last sighting alone) is what the test tells apart.
+  PipelineConfig off = linearConfig();
+  off.delayed_sightings = false;
+  auto last_assoc = std::make_shared<ScriptedAssociator>(nullptr);
+  *last_assoc = ScriptedAssociator(delayedScript(6, &last_assoc->added));
+  SlamPipeline last(off, last_assoc);
+  EXPECT_EQ(drive(&last, [](int) { return true; }), 0u);
+  const int idx = last.ekf().indexOf(1);
+  EXPECT_GT(last.ekf().landmarkCovariance(idx).trace(),
+            1.5 * now.ekf().landmarkCovariance(now.ekf().indexOf(1)).trace());
+}
+
+TEST(DelayedSightings, ADroppedFeatureLeavesTheStateAsIfNeverSeen) {
+  // Seen at scans 0-4 as a tentative feature (pose clones kept), dropped at scan 5.
+  auto dropped_assoc = std::make_shared<ScriptedAssociator>(nullptr);
+  *dropped_assoc = ScriptedAssociator(delayedScript(-5, &dropped_assoc->added));
+  SlamPipeline dropped(linearConfig(), dropped_assoc);
+  EXPECT_GE(drive(&dropped, [](int k) { return k <= 5; }), 5u);
+  // Never seen.
+  auto never_assoc = std::make_shared<ScriptedAssociator>(nullptr);
+  *never_assoc = ScriptedAssociator(delayedScript(-5, &never_assoc->added));
+  SlamPipeline never(linearConfig(), never_assoc);
+  drive(&never, [](int) { return false; });
+  expectSameState(dropped.ekf(), never.ekf(), 1e-12);
+}
+
+TEST(DelayedSightings, CloneCountIsCapped) {
+  PipelineConfig c = linearConfig();
+  c.max_pose_clones = 3;
+  auto assoc = std::make_shared<ScriptedAssociator>(nullptr);
+  *assoc = ScriptedAssociator(delayedScript(8, &assoc->added));
+  SlamPipeline p(c, assoc);
+  EXPECT_EQ(drive(&p, [](int) { return true; }), 3u);
+  // Admitted at scan 8 with the last three kept sightings (5, 6, 7); the older ones were let go.
+  EXPECT_EQ(p.counters().delayed_sightings, 3u);
+  EXPECT_EQ(p.counters().dropped_sightings, 5u);
+  EXPECT_EQ(p.ekf().numClones(), 0u);
+}
+
+// DJNN on a static landmark: its decisions are tentative until the evidence admits it, and the
+// landmark then carries every sighting (the same estimate as pairing from the first one).
+TEST(DelayedSightings, DjnnAdmissionUsesEverySighting) {
+  auto djnn = std::make_shared<DJNN>();
+  djnn->configure(MapParameterSource(
+      std::map<std::string, std::string>{{"sensor_range", "30"}, {"field_of_view", "6.283185"}}));
+  SlamPipeline delayed(linearConfig(), djnn);
+  std::vector<Decision> decisions;
+  for (int k = 0; k < kScans; ++k) {
+    OdometryInput o;
+    o.stamp = k - 0.5;
+    o.twist = Eigen::Vector2d(1.0, 0.0);
+    delayed.addOdometry(o);
+    decisions.push_back(
+        delayed.processObservations(k, sightings(k, false)).association.decision[0]);
+  }
+  const int admitted = static_cast<int>(
+      std::find(decisions.begin(), decisions.end(), Decision::kNew) - decisions.begin());
+  ASSERT_EQ(admitted, djnn->params().paper.admit_evidence - 1);
+  auto now_assoc = std::make_shared<ScriptedAssociator>(nullptr);
+  *now_assoc = ScriptedAssociator(delayedScript(0, &now_assoc->added));
+  SlamPipeline now(linearConfig(), now_assoc);
+  drive(&now, [](int) { return false; });
+  expectSameState(delayed.ekf(), now.ekf(), 1e-9);
+}
+
+}  // namespace
+}  // namespace ekf_slam
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

@@ -113,10 +113,16 @@ TEST(DJNNDetection, WeightsFollowDetectionAndClutter) {
     }
     return d.evidence(Scene::idOf(a));
   };
-  // P_D = 0.4: tau = 0.2: 2 + 5 * 1.6 - 5 * 0.4 = 8.
-  EXPECT_EQ(after({{"detection_probability", "0.4"}}, 5, 5), 8);
+  // P_D = 0.4: tau = 0.2: 2 + 5 * 1.6 - 5 * 0.4 = 8. The counter alone: without the profile's
+  // extensions (the density test would withdraw pairings among that much clutter).
+  EXPECT_EQ(after({{"detection_probability", "0.4"}, {"missed_detection_profile", "false"}}, 5, 5),
+            8);
   // Strong clutter (P_F capped at P_D / 2 = 0.2): tau = 0.3: 2 + 5 * 1.4 - 5 * 0.6 = 6.
-  EXPECT_EQ(after({{"detection_probability", "0.4"}, {"clutter_density", "1000"}}, 5, 5), 6);
+  EXPECT_EQ(after({{"detection_probability", "0.4"},
+                   {"clutter_density", "1000"},
+                   {"missed_detection_profile", "false"}},
+                  5, 5),
+            6);
 }
 
 // A feature seen, missed, and seen again: the paper drops it at the miss (T = 0); with P_D = 0.5
@@ -162,6 +168,64 @@ TEST(DJNNDetection, MinimumRangeAndPolygonBoundThePenaltyRegion) {
   EXPECT_EQ(d.evidence(Scene::idOf(side)), 5);
   EXPECT_EQ(d.evidence(Scene::idOf(inside)), 2);
   EXPECT_EQ(d.evidence(Scene::idOf(seen)), 8);
+}
+
+// Issue 31: a user states the sensor's detection probability; DJNN switches on the extensions a
+// sensor that misses landmarks needs, without configuring them one by one. A value the user sets
+// wins; a sensor that sees everything reads the documented defaults (the paper's DJNN).
+TEST(DJNNDetection, MissedDetectionProfileIsOnBelowDetectionProbabilityOne) {
+  const DJNN all_seen = makeDjnn();
+  EXPECT_FALSE(all_seen.params().follow_pose.tentative_follow_pose);
+  EXPECT_FALSE(all_seen.params().shift.shift_test);
+  EXPECT_FALSE(all_seen.params().density.estimate_landmark_density);
+  EXPECT_EQ(all_seen.params().joint.loop_closure_age, 0.0);
+  EXPECT_EQ(all_seen.params().bias.bias_keep_pairings, 0);
+
+  const DJNN camera = makeDjnn({{"detection_probability", "0.7"}});
+  EXPECT_TRUE(camera.params().follow_pose.tentative_follow_pose);
+  EXPECT_TRUE(camera.params().static_test.static_heading);
+  EXPECT_TRUE(camera.params().shift.shift_test);
+  EXPECT_TRUE(camera.params().density.estimate_landmark_density);
+  EXPECT_EQ(camera.params().bias.bias_keep_pairings, 10);
+  EXPECT_EQ(camera.params().joint.loop_closure_age, 60.0);
+  EXPECT_EQ(camera.params().remembered.remembered_sightings, 2);
+  EXPECT_EQ(camera.params().remembered.held_birth_cost, 4.0);
+  EXPECT_EQ(camera.params().confirmation.held_confirmations, 1);
+
+  const DJNN told = makeDjnn({{"detection_probability", "0.7"},
+                              {"tentative_follow_pose", "false"},
+                              {"loop_closure_age", "0"}});
+  EXPECT_FALSE(told.params().follow_pose.tentative_follow_pose);
+  EXPECT_EQ(told.params().joint.loop_closure_age, 0.0);
+  EXPECT_TRUE(told.params().shift.shift_test);
+
+  const DJNN bare =
+      makeDjnn({{"detection_probability", "0.7"}, {"missed_detection_profile", "false"}});
+  EXPECT_FALSE(bare.params().follow_pose.tentative_follow_pose);
+  EXPECT_EQ(bare.params().joint.loop_closure_age, 0.0);
+}
+
+// The density of unmapped landmarks is estimated from the map: landmarks on a 3 m grid
+// (1/9 per m^2) all around; the sensor's half disc of 30 m holds about 157 of them.
+TEST(DJNNDetection, LandmarkDensityIsEstimatedFromTheMappedLandmarksInView) {
+  Scene s;
+  for (double x = -45.0; x <= 45.0; x += 3.0) {
+    for (double y = -45.0; y <= 45.0; y += 3.0) s.addLandmark({x + 0.5, y + 0.5});
+  }
+  s.build();
+  s.observePoint({8.0, 1.0}, nullptr, 0);
+  DJNN estimating = makeDjnn({{"detection_probability", "0.7"}});
+  EXPECT_EQ(estimating.landmarkDensity(), 0.0);  // nothing seen yet: off
+  estimating.associate(s.context());
+  EXPECT_NEAR(estimating.landmarkDensity(), 1.0 / 9.0, 0.05 / 9.0);
+
+  DJNN given = makeDjnn({{"detection_probability", "0.7"}, {"landmark_density", "0.3"}});
+  given.associate(s.context());
+  EXPECT_EQ(given.landmarkDensity(), 0.3);
+
+  DJNN paper = makeDjnn();  // P_D = 1: the paper's DJNN, no density test
+  paper.associate(s.context());
+  EXPECT_EQ(paper.landmarkDensity(), 0.0);
 }
 
 }  // namespace

@@ -25,9 +25,10 @@
 #include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/LandmarkObservationArray.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
-#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/evaluation/simulation/simulator.h"
+#include "ekf_slam/evaluation/world_parameters.h"
 #include "ekf_slam/ros/offline/offline_runner.h"
 #include "ekf_slam/tools/simulation_bag.h"
 #include "offline_test_options.h"
@@ -375,6 +376,38 @@ TEST(SimulateYaml, NumbersReadBackAsNumbersInBothYamlDialects) {
 // config/arena.yaml and config/fiducials.yaml are what `simulate` writes for their world: a key
 // added to a world's parameters and not to the shipped file would give roslaunch users another
 // filter than `evaluate` scores. Comment lines (the header) may differ.
+// Issue 31: a world's parameter file holds what a user knows (the sensor's datasheet, the
+// vehicle), never what only the simulator knows. Every world's file is the same after its truth
+// (where the landmarks are, how many, the clutter, the movers) is changed, and names none of the
+// keys the oracle configuration computes from it.
+TEST(SimulateYaml, NoWorldsParameterFileHoldsTheTruth) {
+  const std::vector<std::string> truth_keys = {
+      "landmark_density",      "landmark_spacing", "clutter_density",      "static_min_speed",
+      "tentative_follow_pose", "static_heading",   "shift_test",           "bias_keep_pairings",
+      "admit_evidence",        "loop_closure_age", "remembered_sightings", "held_birth_cost",
+      "held_confirmations"};
+  for (const std::string& name : sim::worldNames()) {
+    const sim::World world = sim::makeWorld(name);
+    const std::string written = worldParamsYaml(world, {});
+    for (const std::string& key : truth_keys)
+      EXPECT_EQ(written.find(key + ":"), std::string::npos) << name << " writes " << key;
+    sim::World other = world;
+    for (Eigen::Vector2d& l : other.landmarks)
+      l = 0.5 * (l + world.area_min) + Eigen::Vector2d(0.3, 0.1);
+    other.landmarks.resize(other.landmarks.size() / 2 + 1, world.area_min);
+    other.clutter_rate = 2.0 * world.clutter_rate + 1.0;
+    other.movers.count = world.movers.count + 3;
+    other.movers.min_speed = 0.5 * world.movers.min_speed + 0.1;
+    EXPECT_EQ(written, worldParamsYaml(other, {}))
+        << name << ": the parameters depend on the truth";
+  }
+  // The oracle's configuration, for comparison, does (evaluate --oracle).
+  const sim::World fiducials = sim::makeWorld("fiducials");
+  EXPECT_EQ(sim::associatorParametersFor(fiducials, "DJNN", sim::Knowledge::kOracle)
+                .count("landmark_density"),
+            1u);
+}
+
 TEST(SimulateYaml, ShippedWorldConfigsAreWhatSimulateWrites) {
   const auto without_comments = [](std::istream& in) {
     std::string line, body;

@@ -21,8 +21,9 @@ std::string text(double v) {
 
 // A range that covers every landmark of the world from anywhere in it: what "the whole map is
 // visible" means to range-limited code (the pipeline's filter, DJNN's local region).
-// Worlds with more landmarks than this run the compressed EKF (filter cekf).
-constexpr std::size_t kCompressedFilterLandmarks = 5000;
+// Sites larger than this [m^2] run the compressed EKF (filter cekf): a user knows the size of
+// the site, not how many landmarks it holds.
+constexpr double kCompressedFilterSiteArea = 1.0e6;
 // ... with areas this long [m] (cekf_area_size).
 constexpr double kLargeWorldAreaSize = 150.0;
 // ... and this much slack [m] (cekf_area_slack): crossing the mapped grid after half an hour of
@@ -88,7 +89,7 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
   // Its areas a block long: at this size a global update (N^2 n_A) costs far more than the steps
   // on A, and a 150 m area closes once per block of the city's grid where a 50 m one closes
   // twice (docs/benchmarks.md, "city: both filters at N >= 20 000").
-  if (world.landmarks.size() > kCompressedFilterLandmarks) {
+  if ((world.area_max - world.area_min).prod() > kCompressedFilterSiteArea) {
     p["filter"] = "cekf";
     p["cekf_area_size"] = text(kLargeWorldAreaSize);
     p["cekf_area_slack"] = text(kLargeWorldAreaSlack);
@@ -96,10 +97,11 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
   if (world.noise.odometry_wheel_factors != Eigen::Vector2d::Ones()) {
     // What odometry_correction: wheel_factors needs to match the simulated wheels: their track,
     // and no random walk (the world's factors are constant). This world's consistency is what
-    // it is for (AEKF, docs/notes/2026-11-to-12-results-record.md), so it also gets its odometry noise exactly: the speed
-    // and steering-angle noise of each control step on its wheelbase, where twistNoiseFor's
-    // bound at the steering limit is 3.3 times the yaw-rate noise of a straight and, with it
-    // read on a straight, the turns' noise (1.7 times the variance) was missing.
+    // it is for (AEKF, docs/notes/2026-11-to-12-results-record.md), so it also gets its odometry
+    // noise exactly: the speed and steering-angle noise of each control step on its wheelbase,
+    // where twistNoiseFor's bound at the steering limit is 3.3 times the yaw-rate noise of a
+    // straight and, with it read on a straight, the turns' noise (1.7 times the variance) was
+    // missing.
     const double L = world.vehicle.wheelbase;
     p["correction_track_width"] = text(world.vehicle.track_width);
     p["correction_wheel_factor_noise"] = "0";
@@ -153,7 +155,8 @@ double coveredLandmarkDensity(const World& world, double cell) {
 }
 
 std::map<std::string, std::string> associatorParametersFor(const World& world,
-                                                           const std::string& short_name) {
+                                                           const std::string& short_name,
+                                                           Knowledge knowledge) {
   if (short_name == "FGCBB" || short_name == "GCBB")
     return {{"sensor_range", text(coveringRange(world))}};
   if (short_name != "DJNN") return {};
@@ -163,48 +166,13 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
       {"sensor_range", text(coveringRange(world))},
       {"field_of_view", text(std::min(world.sensor.field_of_view, 2.0 * M_PI))}};
   // Sensors that are not the papers' (keys added only then, so the papers' worlds read exactly
-  // what they did): a minimum range, a detection probability (the lowest in the region: DJNN's
-  // threshold sits halfway to it), margins scaled to a short range.
+  // what they did): a minimum range, a nominal detection probability (the lowest in the region:
+  // DJNN's threshold sits halfway to it), margins scaled to a short range.
   const SensorSpec& s = world.sensor;
   if (s.min_range > 0.0) p["min_range"] = text(s.min_range);
   const double pd =
       std::min(s.detectionProbability(s.min_range), s.detectionProbability(coveringRange(world)));
-  if (pd < 1.0) {
-    p["detection_probability"] = text(pd);
-    // Sparse detections let movers pass close to landmarks between sightings: a landmark with two
-    // bias windows of unbiased pairings stays when the bias test fires (docs/djnn.md).
-    p["bias_keep_pairings"] = "10";
-    // Other robots among sparse detections: admission needs sightings spanning the time in which
-    // the slowest of them shows its motion (docs/djnn.md, "A minimum speed for the static test").
-    if (world.movers.count > 0) p["static_min_speed"] = text(world.movers.min_speed);
-    // A camera that misses landmarks keeps many of them tentative while the pose is corrected:
-    // the features follow the corrections and the static test allows for the heading error
-    // (docs/djnn.md, "Tentative features and the pose error"). Pairings are weighed jointly against
-    // a shifted scan and against unmapped landmarks at their density where the sensor looks.
-    p["tentative_follow_pose"] = "true";
-    p["static_heading"] = "true";
-    p["shift_test"] = "true";
-    // "Where the sensor looks": per m^2 of the ground the route's views cover, not of the
-    // world's bounding box (corridors hold their markers in a third of the grid's area).
-    if (!world.landmarks.empty()) p["landmark_density"] = text(coveredLandmarkDensity(world));
-    if (world.movers.count == 0) {
-      // Without movers, a few static sightings tell a landmark from clutter (the 7-sighting
-      // admission is the static test's span for walking-pace movers), and loop closures get the
-      // joint decision with the features seen but not admitted remembered as evidence
-      // (docs/djnn.md, "Closing the loops"); the route of `fiducials` never returns within 60 s.
-      p["admit_evidence"] = "3";
-      p["loop_closure_age"] = "60";
-      p["remembered_sightings"] = "2";
-      p["held_birth_cost"] = "4";
-      // Two markers are never closer than this: a source that close to a mapped one is that
-      // marker or clutter (docs/djnn.md, "The other failing seeds").
-      if (world.clutter_rate > 0.0) p["landmark_spacing"] = text(leastSpacing(world.landmarks));
-      // One held scan's noise passing the margin no longer decides a closure: its lead must
-      // have led the held scan before (docs/djnn.md, "A held closure decided only on a lead
-      // that repeats").
-      p["held_confirmations"] = "1";
-    }
-  }
+  if (pd < 1.0) p["detection_probability"] = text(pd);
   const double R = coveringRange(world);
   if (R < 15.0) p["range_margin"] = text(0.2 * R);
   if (s.polygon.size() >= 3) {
@@ -214,11 +182,48 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
     }
     p["fov_polygon"] = poly;
   }
-  if (pd < 1.0 && world.clutter_rate > 0.0) {
-    // Clutter is uniform over the sensor's sector (min..max range, field of view).
+  if (knowledge == Knowledge::kOracle) {
+    for (const auto& [key, value] : oracleDjnnParameters(world)) p[key] = value;
+  }
+  return p;
+}
+
+std::map<std::string, std::string> oracleDjnnParameters(const World& world) {
+  std::map<std::string, std::string> p;
+  const SensorSpec& s = world.sensor;
+  const double R = coveringRange(world);
+  const double pd = std::min(s.detectionProbability(s.min_range), s.detectionProbability(R));
+  if (pd >= 1.0) return p;
+  // Sparse detections let movers pass close to landmarks between sightings: a landmark with two
+  // bias windows of unbiased pairings stays when the bias test fires (docs/djnn.md).
+  p["bias_keep_pairings"] = "10";
+  // Other robots among sparse detections: admission needs sightings spanning the time in which
+  // the slowest of them shows its motion (the movers' true speed).
+  if (world.movers.count > 0) p["static_min_speed"] = text(world.movers.min_speed);
+  // A camera that misses landmarks keeps many of them tentative while the pose is corrected: the
+  // features follow the corrections and the static test allows for the heading error. Pairings
+  // are weighed jointly against a shifted scan and against unmapped landmarks at their true
+  // density where the sensor looks.
+  p["tentative_follow_pose"] = "true";
+  p["static_heading"] = "true";
+  p["shift_test"] = "true";
+  if (!world.landmarks.empty()) p["landmark_density"] = text(coveredLandmarkDensity(world));
+  if (world.movers.count == 0) {
+    // Knowing there are no movers: a few static sightings tell a landmark from clutter, and loop
+    // closures get the joint decision with the features seen but not admitted remembered as
+    // evidence (docs/notes/2026-11-to-12-djnn-record.md, "Closing the loops").
+    p["admit_evidence"] = "3";
+    p["loop_closure_age"] = "60";
+    p["remembered_sightings"] = "2";
+    p["held_birth_cost"] = "4";
+    // The true least spacing of two landmarks.
+    if (world.clutter_rate > 0.0) p["landmark_spacing"] = text(leastSpacing(world.landmarks));
+    p["held_confirmations"] = "1";
+  }
+  if (world.clutter_rate > 0.0) {
+    // The simulator's clutter rate, uniform over the sensor's sector.
     const double half = 0.5 * std::min(s.field_of_view, 2.0 * M_PI);
-    const double area = half * (R * R - s.min_range * s.min_range);
-    p["clutter_density"] = text(world.clutter_rate / area);
+    p["clutter_density"] = text(world.clutter_rate / (half * (R * R - s.min_range * s.min_range)));
   }
   return p;
 }

@@ -259,7 +259,7 @@ YamlConfiguration evaluationConfiguration(const EvaluateOptions& o, const sim::W
   std::vector<std::string> plugins = {pluginShortName(associator)};
   if (!o.relocaliser.empty()) plugins.push_back(pluginShortName(o.relocaliser));
   for (const std::string& plugin : plugins) {
-    for (const auto& [name, value] : sim::associatorParametersFor(w, plugin))
+    for (const auto& [name, value] : sim::associatorParametersFor(w, plugin, o.knowledge))
       c.setDefault(plugin, name, value);
   }
   // The options over the file.
@@ -551,7 +551,8 @@ void writeEvaluation(const Evaluation& e, const std::string& command) {
 void printEvaluateUsage(std::ostream& out) {
   out << "usage: evaluate --world NAME[,NAME...] --out DIR [--runs N] [--associators A,B,...]\n"
          "                [--seed FIRST] [--params YAML] [--set NAME=VALUE ...] [--jobs N]\n"
-         "                [--odometry-correction MODE] [--relocaliser NAME] [--no-progress]\n"
+         "                [--odometry-correction MODE] [--relocaliser NAME] [--oracle]\n"
+         "                [--no-progress]\n"
          "Runs each associator on the same simulated seeds and scores it against the truth:\n"
          "DIR/results.csv (a row per run), DIR/nees.csv, DIR/summary.md.\n"
          "  NAME       a world (simulate --list), or a prefix with '*' (e.g. 'rrw_noise_*')\n"
@@ -568,7 +569,11 @@ void printEvaluateUsage(std::ostream& out) {
          "             (the pipeline's odometry_correction; results.csv gets the final\n"
          "             estimates, their std devs and the world's true values)\n"
          "  --relocaliser  e.g. ekf_slam/FGCBB: lost-robot recovery in every run, scored in\n"
-         "             results.csv (relocalisations, wrong_relocalisations, recovery_scans, ...)\n";
+         "             results.csv (relocalisations, wrong_relocalisations, recovery_scans, ...)\n"
+         "  --oracle   also configure DJNN from the simulator's truth (landmark density and\n"
+         "             spacing, clutter, movers' speed, per-world switches): a comparison\n"
+         "             column only. By default a world is configured from its sensor's\n"
+         "             datasheet and its vehicle alone, as a user would.\n";
 }
 
 bool parseEvaluateArguments(const std::vector<std::string>& args, EvaluateOptions* o, bool* help,
@@ -595,6 +600,10 @@ bool parseEvaluateArguments(const std::vector<std::string>& args, EvaluateOption
     }
     if (a == "--no-progress") {
       o->progress = false;
+      continue;
+    }
+    if (a == "--oracle") {
+      o->knowledge = sim::Knowledge::kOracle;
       continue;
     }
     static const std::vector<std::string> with_value = {

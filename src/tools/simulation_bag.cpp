@@ -28,9 +28,9 @@
 
 #include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/LandmarkObservationArray.h"
-#include "ekf_slam/evaluation/simulated_run.h"
-#include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/common/pose2d.h"
+#include "ekf_slam/core/filter/motion_models.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/evaluation/simulation/laser_scan_simulator.h"
 #include "ekf_slam/evaluation/simulation/simulator.h"
 #include "ekf_slam/ros/conversions.h"
@@ -210,7 +210,7 @@ std::string simulationParamsYaml(
     << ") ---\n";
   for (const auto& [name, value] : pipeline) y << name << ": " << yamlScalar(value) << "\n";
   y << "\n# --- associators: the parameters that depend on the world "
-       "(sim::associatorParametersFor) ---\n";
+       "(sim::associatorParametersFor: the sensor's datasheet, never the simulator's truth) ---\n";
   // In the order of kAssociators: DJNN, the default, first.
   for (const char* a : kAssociators) {
     const auto it = associators.find(a);

@@ -20,12 +20,28 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world);
 /// readPipelineConfig(pipelineParametersFor(world)).
 PipelineConfig pipelineConfigFor(const World& world);
 
-/// Parameters of plugin `short_name` ("DJNN", "NN", "FGCBB", ...) that depend on the world:
-/// DJNN's sensor_range and field_of_view (the local region, eq. 10: for a whole-map world a range
-/// that covers the whole area), the relocalisers' sensor_range; empty for plugins without
-/// world-dependent parameters.
-std::map<std::string, std::string> associatorParametersFor(const World& world,
-                                                           const std::string& short_name);
+/// What a world's configuration may be computed from.
+enum class Knowledge {
+  /// What a user knows: the sensor's datasheet (range limits, field of view, noise, a nominal
+  /// detection probability) and the vehicle. The default everywhere (issue 31).
+  kDatasheet,
+  /// ... plus what only the simulator knows (oracleDjnnParameters): `evaluate --oracle`, a
+  /// comparison column, never a default.
+  kOracle,
+};
+
+/// Parameters of plugin `short_name` ("DJNN", "NN", "FGCBB", ...) that depend on the world's
+/// sensor: DJNN's sensor_range and field_of_view (the local region, eq. 10: for a whole-map
+/// sensor a range that covers the site), min_range, nominal detection_probability, fov_polygon,
+/// range_margin; the relocalisers' sensor_range; empty for plugins without such parameters.
+std::map<std::string, std::string> associatorParametersFor(
+    const World& world, const std::string& short_name, Knowledge knowledge = Knowledge::kDatasheet);
+
+/// The DJNN parameters computed from the simulator's truth that earlier rounds configured per
+/// world (landmark_density, landmark_spacing, clutter_density, static_min_speed from the true
+/// landmarks, clutter and movers, and the switches set by the world's class). Only for
+/// Knowledge::kOracle; empty for a sensor that detects every landmark.
+std::map<std::string, std::string> oracleDjnnParameters(const World& world);
 
 /// Landmarks per m^2 of the ground the sensor's region covers along the world's route: the
 /// landmarks inside the cells (side `cell` [m]) whose centre one of the true sensor poses of a run

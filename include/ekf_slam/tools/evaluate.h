@@ -21,8 +21,9 @@
 #include <vector>
 
 #include "ekf_slam/app/pipeline_builder.h"
-#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/app/yaml_configuration.h"
+#include "ekf_slam/evaluation/simulated_run.h"
+#include "ekf_slam/evaluation/world_parameters.h"
 
 namespace ekf_slam {
 
@@ -49,6 +50,9 @@ struct EvaluateOptions {
   /// --odometry-correction MODE: the pipeline's odometry_correction (empty: the YAML's or none).
   std::string odometry_correction;
   bool progress = true;
+  /// --oracle: DJNN also gets the truth-derived parameters (sim::oracleDjnnParameters), a
+  /// comparison column. Default: the datasheet alone.
+  sim::Knowledge knowledge = sim::Knowledge::kDatasheet;
 };
 
 /// One run of one associator.

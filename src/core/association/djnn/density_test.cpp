@@ -9,11 +9,50 @@
 namespace ekf_slam {
 
 void DensityTest::read(const ParameterReader& r) {
-  p_.landmark_density = r.nonNegative("landmark_density", Params().landmark_density);
+  const Params def;
+  p_.landmark_density = r.nonNegative("landmark_density", def.landmark_density);
+  p_.estimate_landmark_density = r.flag("estimate_landmark_density", def.estimate_landmark_density);
+}
+
+void DensityTest::configure(const SensorModel& sensor) {
+  // The region's area by counting a fine grid over its bounding box: any wedge, annulus and
+  // polygon alike, once per configure.
+  constexpr int kCells = 400;
+  const double R = sensor.max_range;
+  const double cell = 2.0 * R / kCells;
+  int inside = 0;
+  for (int a = 0; a < kCells; ++a) {
+    for (int b = 0; b < kCells; ++b) {
+      inside += sensor.contains({-R + (a + 0.5) * cell, -R + (b + 0.5) * cell}, 0.0, 0.0);
+    }
+  }
+  region_area_ = inside * cell * cell;
+  reset();
+}
+
+void DensityTest::reset() { landmarks_seen_ = area_seen_ = 0.0; }
+
+double DensityTest::density() const {
+  if (!estimating()) return p_.landmark_density;
+  return area_seen_ > 0.0 ? landmarks_seen_ / area_seen_ : 0.0;
+}
+
+void DensityTest::observe(const AssociationContext& ctx, const DjnnPaper& paper,
+                          const LocalScan& scan) {
+  if (!estimating() || !(region_area_ > 0.0)) return;
+  int inside = 0;
+  for (int j : scan.cand) {
+    inside += paper.inRegion(DjnnPaper::inSensorFrame(scan, ctx.ekf().landmark(j)), 0.0, 0.0);
+  }
+  // A region without a mapped landmark is new ground (or bare): it says nothing of how many
+  // landmarks are there, only that none is mapped yet.
+  if (inside == 0) return;
+  landmarks_seen_ += inside;
+  area_seen_ += region_area_;
 }
 
 double DensityTest::unmappedCost(double clutter_density) const {
-  return -2.0 * std::log(p_.landmark_density + clutter_density);
+  return -2.0 * std::log(density() + clutter_density);
 }
 
 void DensityTest::apply(const AssociationContext& ctx, double clutter_density, LocalScan* scan,

@@ -2,6 +2,8 @@
 // docs/djnn.md.
 #include "ekf_slam/core/association/djnn/djnn.h"
 
+#include "ekf_slam/core/association/djnn/missed_detection_profile.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -16,12 +18,18 @@ DJNN::DJNN() {
   configure(MapParameterSource());
 }
 
-void DJNN::configure(const ParameterSource& params) {
+void DJNN::configure(const ParameterSource& user) {
+  // A sensor that misses landmarks gets the missed-detection profile's defaults under the user's
+  // values (missed_detection_profile.h).
+  DjnnPaperParams paper;
+  paper.read(ParameterReader(user));
+  const ParameterDefaults profiled(user, missedDetectionDefaults());
+  const bool misses = paper.sensor.detection_probability < 1.0 &&
+                      ParameterReader(user).flag("missed_detection_profile", true);
+  const ParameterSource& params = misses ? static_cast<const ParameterSource&>(profiled) : user;
   // Every part reads its own parameters; nothing changes unless all of them are valid.
   const ParameterReader r(params);
   Params p;
-  DjnnPaperParams paper;
-  paper.read(r);
   AmbiguityGate ambiguity;
   ambiguity.read(r, paper.individual_probability);
   p.max_evidence = r.integer("max_evidence", 0, 0, kMaxEvidence);
@@ -38,7 +46,8 @@ void DJNN::configure(const ParameterSource& params) {
   DensityTest density;
   density.read(r);
   JointDecision joint;
-  joint.read(r, density.params().landmark_density + paper.sensor.clutter_density);
+  joint.read(r, density.params().landmark_density > 0.0 || density.estimating() ||
+                    paper.sensor.clutter_density > 0.0);
   RememberedFeatures remembered;
   remembered.read(r);
   LandmarkSpacing spacing;
@@ -72,6 +81,7 @@ void DJNN::configure(const ParameterSource& params) {
   bias_test_ = bias;
 
   paper_.configure(p_.paper, p_.max_evidence);
+  density_test_.configure(p_.paper.sensor);
   static_test_.configure(p_.paper.admit_evidence);
   bias_test_.configure();
   reset();
@@ -81,6 +91,7 @@ void DJNN::reset() {
   paper_.reset();
   bias_test_.reset();
   joint_.reset();
+  density_test_.reset();
   remembered_.reset();
   confirmation_.clear();
   scan_ = LocalScan();
@@ -114,6 +125,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   scan_.assign.assign(m, -1);
   scan_.gated.assign(m, 0);
   paper_.nearestNeighbours(ctx, &scan_);
+  density_test_.observe(ctx, paper_, scan_);
   last_case_ = paper_.resolveInterference(ctx, &scan_, &stats_);
   ++stats_.cases[static_cast<int>(last_case_)];
 
@@ -128,7 +140,10 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
                                    spacing_,
                                    remembered_,
                                    confirmation_};
-  if (!joint_.on() || !joint_.decide(ctx, parts, &scan_, &stats_)) {
+  // Without a density of "not in the map" yet (an estimate before any mapped landmark was in
+  // view), the joint decision has no null hypothesis: the scan is decided as without it.
+  const bool unmapped_known = density_test_.density() + p_.paper.sensor.clutter_density > 0.0;
+  if (!joint_.on() || !unmapped_known || !joint_.decide(ctx, parts, &scan_, &stats_)) {
     shift_test_.apply(ctx, paper_.gate(), ambiguity_.gate(), &scan_, &stats_);
     density_test_.apply(ctx, p_.paper.sensor.clutter_density, &scan_, &stats_);
   }

@@ -6,6 +6,9 @@
 // inside the wide gate. Jointly, observations that fit one pose correction multiply densities of
 // the observation noise, far above lambda^k; a lone pairing does not. Each pairing is judged
 // given the others, and withdrawn, least likely first, until the rest beat lambda.
+// A user does not know the landmark density: with estimate_landmark_density it is estimated
+// online from the map, as the mapped landmarks inside the sensor region per m^2 of that region,
+// over the scans whose region holds any (a place seen before), so no one configures it.
 #pragma once
 
 #include "ekf_slam/core/association/djnn/djnn_paper.h"
@@ -18,10 +21,21 @@ class DensityTest {
  public:
   struct Params {
     double landmark_density = 0.0;  ///< unmapped landmarks per m^2 where the sensor looks; 0: off
+    /// With landmark_density 0: estimate it online from the map (the test is off until the
+    /// sensor region has held a mapped landmark).
+    bool estimate_landmark_density = false;
   };
   void read(const ParameterReader& r);
+  /// The sensor region whose area the estimate divides by.
+  void configure(const SensorModel& sensor);
+  void reset();
   const Params& params() const { return p_; }
-  bool on() const { return p_.landmark_density > 0.0; }
+  bool estimating() const { return p_.landmark_density <= 0.0 && p_.estimate_landmark_density; }
+  /// The density in use: the configured one, or the estimate (0 before any).
+  double density() const;
+  bool on() const { return density() > 0.0; }
+  /// Feeds the estimate with this scan's local region (after DjnnPaper::localRegion).
+  void observe(const AssociationContext& ctx, const DjnnPaper& paper, const LocalScan& scan);
   /// -2 ln of "a landmark not in the map, or clutter" per observation (also the joint
   /// decision's "not in the map").
   double unmappedCost(double clutter_density) const;
@@ -30,6 +44,8 @@ class DensityTest {
 
  private:
   Params p_;
+  double region_area_ = 0.0;  ///< [m^2]
+  double landmarks_seen_ = 0.0, area_seen_ = 0.0;
 };
 
 }  // namespace ekf_slam

@@ -10,7 +10,10 @@
 //   BiasTest             bias_*                          landmarks dragged along by movers
 //   FollowPose           tentative_follow_pose           tentative features left at a corrected
 //   pose ShiftTest            shift_test, shift_margin        a periodic layout's shifted pairing
-//   DensityTest          landmark_density                a new landmark paired with an old one
+//   DensityTest          landmark_density, estimate_landmark_density
+//                                                        a new landmark paired with an old one
+//   missed-detection profile (missed_detection_profile.h): the defaults of the parts above for a
+//                        sensor with detection_probability < 1
 //   JointDecision        loop_closure_age, joint_margin  wrong pairings at loop closures
 //   RememberedFeatures   remembered_sightings, held_birth_cost   holes in the map at closures
 //   LandmarkSpacing      landmark_spacing                duplicates after an over-confident closure
@@ -75,6 +78,8 @@ class DJNN : public DataAssociation, private FeatureRules {
   std::vector<TentativeFeature> tentativeFeatures() const override;
 
   const Params& params() const { return p_; }
+  /// The density of unmapped landmarks in use: landmark_density, or its online estimate.
+  double landmarkDensity() const { return density_test_.density(); }
   Case lastCase() const { return last_case_; }
   const Stats& stats() const { return stats_; }
   /// v_bar (range, bearing) that decided the pairing of the last scan (zero in case 1).

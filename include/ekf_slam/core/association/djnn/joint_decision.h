@@ -39,8 +39,9 @@ class JointDecision {
     HeldConfirmation& confirmation;
   };
 
-  /// `unmapped_density`: landmark_density + clutter_density (must be > 0 when on).
-  void read(const ParameterReader& r, double unmapped_density);
+  /// `unmapped_density`: a density of "not in the map" is known (landmark_density, its online
+  /// estimate, or clutter_density); needed when on.
+  void read(const ParameterReader& r, bool unmapped_density);
   const Params& params() const { return p_; }
   bool on() const { return p_.loop_closure_age > 0.0; }
   void reset();

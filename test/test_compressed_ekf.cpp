@@ -61,6 +61,8 @@ Outcome run(const std::string& world_name, const std::string& filter, const std:
   params["cekf_area_slack"] = std::to_string(slack);
   // The compressed filter keeps no pose clones: both admit new landmarks from their last sighting.
   params["delayed_sightings"] = "false";
+  // ... nor first estimates: both linearise at the current estimate.
+  params["jacobians"] = "standard";
   const PipelineConfig config = readPipelineConfig(MapParameterSource(params));
   std::shared_ptr<DataAssociation> a = associator(assoc, world);
   auto* known = dynamic_cast<KnownAssociation*>(a.get());

@@ -89,6 +89,7 @@ TEST(FilterConsistency, RrwWithStandardJacobiansIsOverConfident) {
   const sim::World w = rrwShortRange();
   PipelineConfig config = sim::pipelineConfigFor(w);
   config.second_order_observations = false;  // the Jacobians alone
+  config.jacobians = "standard";
   EXPECT_GT(anees(w, config), neesBand(kRuns).upper);
 }
 

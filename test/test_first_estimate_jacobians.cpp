@@ -14,10 +14,10 @@
 #include <Eigen/Geometry>
 
 #include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/common/parameters.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/filter/observation_model.h"
-#include "ekf_slam/core/common/parameters.h"
 #include "ekf_slam/core/pipeline/pipeline_config.h"
 
 namespace ekf_slam {
@@ -185,7 +185,15 @@ TEST(FirstEstimateJacobians, FirstEstimatesFollowTheirLandmarks) {
 
 TEST(FirstEstimateJacobians, ParameterValidated) {
   using Values = std::map<std::string, std::string>;
-  EXPECT_EQ(readPipelineConfig(MapParameterSource()).jacobians, "standard");
+  // The default: FEJ with the full EKF, standard with second-order terms or the compressed EKF.
+  EXPECT_EQ(readPipelineConfig(MapParameterSource()).jacobians, "auto");
+  EXPECT_TRUE(readPipelineConfig(MapParameterSource()).firstEstimateJacobians());
+  EXPECT_FALSE(readPipelineConfig(MapParameterSource(Values{{"second_order_observations", "true"}}))
+                   .firstEstimateJacobians());
+  EXPECT_FALSE(
+      readPipelineConfig(MapParameterSource(Values{{"filter", "cekf"}})).firstEstimateJacobians());
+  EXPECT_FALSE(readPipelineConfig(MapParameterSource(Values{{"jacobians", "standard"}}))
+                   .firstEstimateJacobians());
   EXPECT_EQ(
       readPipelineConfig(MapParameterSource(Values{{"jacobians", "first_estimate"}})).jacobians,
       "first_estimate");

@@ -65,6 +65,7 @@ TEST(OdometryCorrection, NoneIsBitIdenticalToThePlainFilter) {
   PipelineConfig config = sim::pipelineConfigFor(w);
   ASSERT_EQ(config.correction.mode, "none");
   config.delayed_sightings = false;  // as that filter: new landmarks from their last sighting
+  config.jacobians = "standard";     // ... in the standard EKF
   auto djnn = std::make_shared<DJNN>();
   djnn->configure(MapParameterSource(sim::associatorParametersFor(w, "DJNN")));
   SlamPipeline p(config, djnn);

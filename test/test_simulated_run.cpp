@@ -94,14 +94,18 @@ TEST(WorldParameters, LandmarkDensityIsPerGroundTheSensorCovers) {
               0.05 * double(tiny.landmarks.size()) / extent.prod());
 }
 
-// The worlds whose heading the standard EKF is over-confident about run the FEJ-EKF; the papers'
-// worlds keep the papers' filter.
-TEST(WorldParameters, FiducialsRunTheFirstEstimateEkf) {
-  EXPECT_EQ(sim::pipelineConfigFor(sim::makeWorld("fiducials")).jacobians, "first_estimate");
-  EXPECT_EQ(sim::pipelineConfigFor(sim::makeWorld("fiducials_lattice")).jacobians,
-            "first_estimate");
-  for (const char* name : {"arena", "djnn_weak", "hybrid", "rrw_noise_1"})
-    EXPECT_EQ(sim::pipelineConfigFor(sim::makeWorld(name)).jacobians, "standard") << name;
+// The default filter (jacobians: auto) is the FEJ-EKF wherever the full EKF runs without
+// second-order observation terms; the worlds whose far landmarks need those terms (rrw: 3 deg at
+// 425 m, where FEJ diverges) and the compressed filter's city run the standard Jacobians. No world
+// chooses its own filter.
+TEST(WorldParameters, DefaultFilterIsFejUnlessFarLandmarksNeedSecondOrderTerms) {
+  for (const char* name :
+       {"fiducials", "fiducials_lattice", "arena", "djnn_weak", "hybrid", "aekf"})
+    EXPECT_TRUE(sim::pipelineConfigFor(sim::makeWorld(name)).firstEstimateJacobians()) << name;
+  for (const char* name : {"rrw_noise_1", "rrw_occlusion_2", "city"})
+    EXPECT_FALSE(sim::pipelineConfigFor(sim::makeWorld(name)).firstEstimateJacobians()) << name;
+  for (const std::string& name : sim::worldNames())
+    EXPECT_EQ(sim::pipelineParametersFor(sim::makeWorld(name)).count("jacobians"), 0u) << name;
 }
 
 TEST(RunScorer, RejectsMisalignedTruth) {

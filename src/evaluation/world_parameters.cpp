@@ -77,7 +77,6 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
     p["pose_delta_alpha_rot_per_rot"] =
         text(n.sigma_speed / v + std::tan(world.vehicle.max_steer) * n.sigma_steer);
   }
-  if (world.first_estimate_jacobians) p["jacobians"] = "first_estimate";
   // Second-order observation terms where they matter (docs/consistency.md): a range-bearing
   // sensor whose second-order range spread at its reach, r sigma_b^2 / sqrt(2), exceeds half its
   // range noise (the rrw worlds: 425 m, 3 deg, 0.1 m), i.e. far landmarks known mostly across.

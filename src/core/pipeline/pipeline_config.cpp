@@ -136,9 +136,10 @@ void PipelineConfig::validate() const {
   positive(cekf_area_size, "cekf_area_size");
   nonNegative(cekf_margin, "cekf_margin");
   nonNegative(cekf_area_slack, "cekf_area_slack");
-  if (jacobians != "standard" && jacobians != "first_estimate") {
-    throw ParameterError("parameter jacobians: must be one of {standard, first_estimate}, got '" +
-                         jacobians + "'");
+  if (jacobians != "auto" && jacobians != "standard" && jacobians != "first_estimate") {
+    throw ParameterError(
+        "parameter jacobians: must be one of {auto, standard, first_estimate}, got '" + jacobians +
+        "'");
   }
   // The compressed filter's private filter starts from the current estimates at every area
   // switch: it would need the first estimates carried through it (not done).
@@ -240,7 +241,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_max_scans = r.integer("lost_max_scans", c.lost_max_scans, 0, 100000);
   c.lost_nis_probability = r.probability("lost_nis_probability", c.lost_nis_probability);
   c.filter = r.text("filter", c.filter, {"ekf", "cekf"});
-  c.jacobians = r.text("jacobians", c.jacobians, {"standard", "first_estimate"});
+  c.jacobians = r.text("jacobians", c.jacobians, {"auto", "standard", "first_estimate"});
   c.second_order_observations = r.flag("second_order_observations", c.second_order_observations);
   c.delayed_sightings = r.flag("delayed_sightings", c.delayed_sightings);
   c.max_pose_clones = r.integer("max_pose_clones", c.max_pose_clones, 1, 10000);

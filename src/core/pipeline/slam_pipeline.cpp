@@ -52,8 +52,8 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
       recovery_(config_, filter_, motion_, model_, book_, counters_) {
   if (!associator_) throw std::invalid_argument("SlamPipeline: no associator given");
   EkfSlam& ekf = filter_.ekf();
-  ekf.setLinearisation(config_.jacobians == "first_estimate" ? Linearisation::kFirstEstimate
-                                                             : Linearisation::kStandard);
+  ekf.setLinearisation(config_.firstEstimateJacobians() ? Linearisation::kFirstEstimate
+                                                        : Linearisation::kStandard);
   ekf.setSecondOrderObservations(config_.second_order_observations);
   reset();
   counters_.resets = 0;

@@ -109,11 +109,6 @@ World fiducialsWorld(double placement_sigma) {
   w.observation_period = 0.2;
   w.max_duration = 1000.0;
   w.pose_delta_odometry = true;
-  // The heading comes from 4-5 markers per scan: with the standard Jacobians the filter with the
-  // true associations is in the NEES band on average but not run by run (seeds 1-20: ANEES 3.36,
-  // runs up to 11.8); the FEJ-EKF keeps every run within 1.4-3.1 (2.20) with a lower error
-  // (docs/consistency.md, docs/djnn.md "A floor laid by hand").
-  w.first_estimate_jacobians = true;
   return w;
 }
 

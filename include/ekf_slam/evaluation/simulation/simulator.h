@@ -163,10 +163,6 @@ struct World {
   /// The filter should use the odometry poses' increments (pipeline odometry_mode pose_delta)
   /// rather than the twist.
   bool pose_delta_odometry = false;
-  /// The filter should run the FEJ-EKF (pipeline `jacobians: first_estimate`): a world whose
-  /// heading the standard EKF is over-confident about with the true associations
-  /// (docs/consistency.md).
-  bool first_estimate_jacobians = false;
   std::uint64_t default_seed = 1;  ///< the paper's seed where it gives one
 
   /// Throws std::invalid_argument naming the first bad field.

@@ -34,10 +34,10 @@ for e in "${experiments[@]}"; do
   case $e in
     djnn)
       run djnn djnn_weak,djnn_strong ekf_slam/JCBB,ekf_slam/NN,ekf_slam/DJNN
-      # DJNN exactly as the paper describes it (no dynamic filtering, seen twice, 0.95 gates).
-      run djnn_paper_settings djnn_weak,djnn_strong ekf_slam/DJNN --set DJNN/admit_evidence=2 \
-        --set DJNN/static_test=false --set DJNN/bias_test=false \
-        --set DJNN/individual_probability=0.95 --set DJNN/ambiguity_probability=0.95
+      # DJNN exactly as the paper describes it (config/djnn_paper.yaml: no extension, seen
+      # twice, 0.95 gates, the landmark from its last sighting).
+      run djnn_paper_settings djnn_weak,djnn_strong ekf_slam/DJNN \
+        --params "$EKF_SLAM_ROOT/config/djnn_paper.yaml"
       ;;
     hybrid) run hybrid hybrid ekf_slam/JCBB,ekf_slam/NNJCBB,ekf_slam/NN,ekf_slam/DJNN ;;
     rrw)

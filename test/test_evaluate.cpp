@@ -186,6 +186,34 @@ TEST(Evaluate, OdometryCorrectionAndTrueAssociations) {
   EXPECT_NE(readFile(o.out_dir + "/summary.md").find("truth 1.0300"), std::string::npos);
 }
 
+// Issue 31: the paper's DJNN (seed 000 as published) stays a named configuration,
+// config/djnn_paper.yaml, and evaluate builds exactly that algorithm from it.
+TEST(Evaluate, PaperPresetIsThePublishedDjnn) {
+  EvaluateOptions o;
+  o.params_path = std::string(EKF_SLAM_SOURCE_DIR) + "/config/djnn_paper.yaml";
+  const sim::World world = sim::makeWorld("djnn_strong");
+  const PipelineParts parts =
+      buildPipeline(evaluationConfiguration(o, world, "ekf_slam/DJNN"), PluginlibFactory());
+  EXPECT_FALSE(parts.config.delayed_sightings);
+  EXPECT_FALSE(parts.config.firstEstimateJacobians());
+  const auto djnn = std::dynamic_pointer_cast<DJNN>(parts.associator);
+  ASSERT_TRUE(djnn);
+  const DJNN::Params& p = djnn->params();
+  EXPECT_EQ(p.paper.admit_evidence, 2);
+  EXPECT_EQ(p.paper.individual_probability, 0.95);
+  EXPECT_EQ(p.ambiguity.ambiguity_probability, 0.95);
+  EXPECT_FALSE(p.static_test.static_test);
+  EXPECT_FALSE(p.bias.bias_test);
+  EXPECT_FALSE(p.follow_pose.tentative_follow_pose);
+  EXPECT_FALSE(p.shift.shift_test);
+  EXPECT_EQ(p.density.landmark_density, 0.0);
+  EXPECT_FALSE(p.density.estimate_landmark_density);
+  EXPECT_EQ(p.joint.loop_closure_age, 0.0);
+  EXPECT_EQ(p.paper.sensor.detection_probability, 1.0);
+  EXPECT_EQ(p.paper.sensor.max_range,
+            std::stod(sim::associatorParametersFor(world, "DJNN").at("sensor_range")));
+}
+
 TEST(Evaluate, UnknownAssociatorListsTheAvailableOnes) {
   EvaluateOptions o = tinyOptions("/nonexistent");
   o.associators = {"ekf_slam/DJN"};

@@ -24,8 +24,8 @@ void DJNN::configure(const ParameterSource& user) {
   DjnnPaperParams paper;
   paper.read(ParameterReader(user));
   const ParameterDefaults profiled(user, missedDetectionDefaults());
-  const bool misses = paper.sensor.detection_probability < 1.0 &&
-                      ParameterReader(user).flag("missed_detection_profile", true);
+  const bool profile = ParameterReader(user).flag("missed_detection_profile", true);
+  const bool misses = profile && paper.sensor.detection_probability < 1.0;
   const ParameterSource& params = misses ? static_cast<const ParameterSource&>(profiled) : user;
   // Every part reads its own parameters; nothing changes unless all of them are valid.
   const ParameterReader r(params);

@@ -44,7 +44,8 @@ if [[ $ctest_rc -ne 0 && $failed -eq 0 ]]; then failed=1; fi  # a crashed binary
 # Checks beyond the test binaries, each counted as one test: the README's main command as a user
 # runs it (CI once stayed green while it failed in every fresh clone), on the data set when it is
 # there (in CI it must be) and on the simulated world; on the data set also the saved-map
-# windows (scripts/saved_map_windows.sh) and the behaviour identity (scripts/identity.sh);
+# windows (scripts/saved_map_windows.sh), the behaviour identity (scripts/identity.sh) and
+# scripts/get_data.sh against a local file:// mirror made from it (test/get_data_test.sh);
 # the include rule of docs/architecture.md (scripts/check_layers.py); the docs' links
 # (scripts/check_links.py); catkin_lint --strict; rosdep
 # resolving
@@ -70,6 +71,8 @@ if [[ -f "$VP_DATA/aa3_dr.mat" ]]; then
   # Behaviour identity against the recorded reference (scripts/identity.sh): a change meant to
   # change nothing must leave these outputs byte for byte; one that changes them re-records.
   check identity "$EKF_SLAM_ROOT/scripts/identity.sh" check --quick
+  # The data download (scripts/get_data.sh): good, present, corrupted, unreachable.
+  check get_data "$EKF_SLAM_ROOT/test/get_data_test.sh"
 elif [[ ${CI:-} == true ]]; then
   echo "demo_victoria_park: FAILED: no Victoria Park data in $VP_DATA (CI=true needs it)"
   failed=$((failed + 1))

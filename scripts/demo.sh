@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# The main demo: from a fresh Debian 12 machine, installs the dependencies, builds, converts the
-# Victoria Park data ($VP_DATA, see scripts/env.sh) into a bag under build/, runs the offline
-# runner with DJNN and prints the metrics and where the map picture is. Without the data it runs
-# the simulated djnn_strong world instead (simulate, run, score against the truth).
+# The main demo: from a fresh Debian 12 machine, installs the dependencies, builds only what it
+# runs (not the tests: scripts/test.sh builds those), converts the Victoria Park data ($VP_DATA, see
+# scripts/env.sh; fetched by scripts/get_data.sh when it is missing) into a bag under build/, runs
+# the offline runner with DJNN and prints the metrics and where the map picture is. Without the
+# data (no network) it runs the simulated djnn_strong world instead (simulate, run, score against
+# the truth).
 #   scripts/demo.sh [ASSOCIATOR]      (default DJNN)
 # Env: DEMO=simulation forces the simulated world; WORLD (djnn_strong), SEED (1).
 set -eo pipefail
@@ -11,15 +13,26 @@ ASSOCIATOR=${1:-DJNN}
 
 mode=${DEMO:-victoria_park}
 if [[ $mode == victoria_park && ! -f "$VP_DATA/aa3_dr.mat" ]]; then
-  cat >&2 <<MSG
-demo.sh: the Victoria Park data set was not found in $VP_DATA
-  (needs aa3_dr.mat, aa3_gpsx.mat and victoria_park_ascii/; see the README, "Data").
-  Running the simulated world ${WORLD:-djnn_strong} instead (set VP_DATA to use the data set).
+  echo "demo.sh: the Victoria Park data set is not in $VP_DATA; fetching it (scripts/get_data.sh)" >&2
+  if ! "$EKF_SLAM_ROOT/scripts/get_data.sh"; then
+    cat >&2 <<MSG
+demo.sh: no Victoria Park data set (see above, and the README, "Data"). Running the simulated
+  world ${WORLD:-djnn_strong} instead (set VP_DATA to a folder with the data set to use it).
 MSG
-  mode=simulation
+    mode=simulation
+  fi
 fi
 
-"$EKF_SLAM_ROOT/scripts/build.sh"
+# Only what the demo runs: the offline runner and the converter (data set) or the simulator
+# (simulated world), with the libraries they link and the plugins they load (dependencies of
+# ekf_slam_ros). With Makefiles the targets are built one after the other, so the one with most
+# dependencies goes first: its libraries compile two at a time.
+if [[ $mode == simulation ]]; then
+  targets="simulate ekf_slam_offline"
+else
+  targets="ekf_slam_offline victoria_park_to_bag"
+fi
+EKF_SLAM_TARGETS=$targets "$EKF_SLAM_ROOT/scripts/build.sh"
 source "$EKF_SLAM_DEVEL/setup.bash"
 
 if [[ $mode == simulation ]]; then

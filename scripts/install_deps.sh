@@ -4,7 +4,7 @@
 set -eo pipefail
 
 PACKAGES=(
-  build-essential cmake pkg-config libgtest-dev libbenchmark-dev libeigen3-dev
+  build-essential cmake ninja-build pkg-config libgtest-dev libbenchmark-dev libeigen3-dev
   ros-core-dev libtf2-ros-dev pluginlib-dev python3-rostest rosbash
   python3-sensor-msgs python3-nav-msgs python3-geometry-msgs python3-visualization-msgs
   python3-tf2-msgs libdiagnostic-msgs-dev python3-diagnostic-msgs python3-std-srvs tf2-tools

@@ -78,6 +78,7 @@ foreach(a NN JCBB NNJCBB Hungarian)
               DEPENDENCIES test_node)
 endforeach()
 add_rostest(test/node_bad_input.test DEPENDENCIES test_node)
+add_rostest(test/node_hold_tf.test DEPENDENCIES test_node)
 ekf_slam_test(test_node_beacons ROSTEST node_beacons LIBS ekf_slam_offline_runner
               PROGRAMS ekf_slam_node_main)
 ekf_slam_test(test_node_faults ROSTEST node_faults

@@ -1,12 +1,14 @@
 # ROS-free estimator (Eigen only): include/ekf_slam/core, src/core.
 add_library(ekf_slam_core
-  # common: angles, poses, chi2, parameters, the sensor's region, a coverage grid, assignment
+  # common: angles, poses, chi2, parameters, the sensor's region, a coverage grid, assignment,
+  # a track's drawable runs
   src/core/common/chi2.cpp
   src/core/common/parameters.cpp
   src/core/common/recording_parameter_source.cpp
   src/core/common/sensor_model.cpp
   src/core/common/coverage_grid.cpp
   src/core/common/assignment_solver.cpp
+  src/core/common/track_split.cpp
   # filter: observations, the EKF (full and compressed), its models, the landmarks' spatial index,
   # scans carried by the odometry
   src/core/filter/observation_model.cpp

@@ -2,14 +2,15 @@
 # loading, the plugin exports, the node and the offline runner.
 
 # Shared by the node, the offline runner and the tools: conversions, the parameter server as a
-# Configuration, pluginlib as a PluginFactory, the Victoria Park bag writer.
+# Configuration, pluginlib as a PluginFactory, the Victoria Park bag writer, the GPS reference.
 add_library(ekf_slam_ros
   src/ros/conversions.cpp
   src/ros/extractor_loader.cpp
   src/ros/ros_parameter_source.cpp
   src/ros/ros_configuration.cpp
   src/ros/plugin_loader.cpp
-  src/ros/victoria_park_bag.cpp)
+  src/ros/victoria_park_bag.cpp
+  src/ros/gps_track.cpp)
 target_include_directories(ekf_slam_ros PUBLIC include)
 target_link_libraries(ekf_slam_ros PUBLIC ekf_slam_core ekf_slam_app ekf_slam_victoria_park
                                           ${catkin_LIBRARIES})
@@ -47,17 +48,19 @@ target_link_libraries(ekf_slam_offline_runner
 add_executable(ekf_slam_offline src/nodes/ekf_slam_offline.cpp)
 target_link_libraries(ekf_slam_offline ekf_slam_offline_runner)
 
-# Commands of the ROS side: the data set converter, the feature extractor and the replay of a
-# saved association problem.
+# Commands of the ROS side: the data set converter, the feature extractor, the replay of a
+# saved association problem and the GPS reference for rviz (victoria_park.launch).
 add_executable(victoria_park_to_bag src/nodes/victoria_park_to_bag.cpp)
 target_link_libraries(victoria_park_to_bag ekf_slam_ros)
 add_executable(detect_trees src/nodes/detect_trees.cpp)
 target_link_libraries(detect_trees ekf_slam_ros)
 add_executable(replay_association src/nodes/replay_association.cpp)
 target_link_libraries(replay_association ekf_slam_ros)
+add_executable(gps_track src/nodes/gps_track.cpp)
+target_link_libraries(gps_track ekf_slam_ros)
 
 set(EKF_SLAM_ROS_PROGRAMS ekf_slam_node_main ekf_slam_offline victoria_park_to_bag detect_trees
-                          replay_association)
+                          replay_association gps_track)
 set_target_properties(${EKF_SLAM_ROS_PROGRAMS} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${BIN_DIR})
 install(TARGETS ekf_slam_ros ekf_slam_association_plugins ekf_slam_relocalisation_plugins
                 ekf_slam_extraction_plugins ekf_slam_node ekf_slam_offline_runner
@@ -69,9 +72,7 @@ install(DIRECTORY include/ DESTINATION ${CATKIN_GLOBAL_INCLUDE_DESTINATION})
 install(FILES association_plugins.xml relocalisation_plugins.xml extraction_plugins.xml
         DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
 install(DIRECTORY launch rviz DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
-install(FILES config/simulation.yaml config/robot.yaml config/victoria_park.yaml
+install(FILES config/simulation.yaml config/robot.yaml config/victoria_park.yaml config/gps_track.yaml
         DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/config)
 # Run as `python3 plot_map.py` by the offline runner, found in the package share folder.
 install(FILES scripts/plot_map.py DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION}/scripts)
-# GPS fixes as a path for rviz (victoria_park.launch).
-catkin_install_python(PROGRAMS scripts/gps_path.py DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})

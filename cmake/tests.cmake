@@ -36,7 +36,7 @@ foreach(t test_chi2 test_parameters test_coverage_grid test_sensor_model
           test_nnjcbb test_hungarian test_shape_context test_reweighted_random_walks
           test_rrwsc_matcher test_rrwsc test_djnn test_djnn_detection test_djnn_admission
           test_djnn_tentative_pose test_djnn_joint test_djnn_remembered test_geometric_constraints test_fgcbb test_rrwsc_relocaliser
-          test_batch_smoother test_pose_clones)
+          test_batch_smoother test_pose_clones test_track_split)
   ekf_slam_test(${t} LIBS ekf_slam_core)
 endforeach()
 ekf_slam_test(test_tree_extractor LIBS ekf_slam_core ekf_slam_victoria_park)
@@ -59,7 +59,7 @@ ekf_slam_test(test_replay_association LIBS ekf_slam_app PROGRAMS replay_associat
 
 # The ROS shell.
 foreach(t test_conversions test_victoria_park test_plugins test_extractor_plugins
-          test_rrwsc_relocaliser_plugin)
+          test_rrwsc_relocaliser_plugin test_gps_track)
   ekf_slam_test(${t} LIBS ekf_slam_ros)
 endforeach()
 ekf_slam_test(test_ros_parameter_source ROSTEST ros_parameter_source LIBS ekf_slam_ros)
@@ -78,6 +78,7 @@ foreach(a NN JCBB NNJCBB Hungarian)
               DEPENDENCIES test_node)
 endforeach()
 add_rostest(test/node_bad_input.test DEPENDENCIES test_node)
+add_rostest(test/node_hold_tf.test DEPENDENCIES test_node)
 ekf_slam_test(test_node_beacons ROSTEST node_beacons LIBS ekf_slam_offline_runner
               PROGRAMS ekf_slam_node_main)
 ekf_slam_test(test_node_faults ROSTEST node_faults

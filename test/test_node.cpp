@@ -632,6 +632,44 @@ TEST(TwoParents, MapToBaseWithOdomTfIsRefused) {
   fs::remove(log);
 }
 
+// hold_odom_tf (victoria_park.launch): once the odometry stops, odom -> base_link stays in tf at
+// later stamps with the last pose, so that rviz started after a replay has the vehicle's frames.
+// The second node (node_hold_tf.test: frames odom_b -> base_b, without hold_odom_tf) shows that
+// otherwise the transform ends with the last message.
+TEST(HoldOdomTf, LastOdometryPoseStaysAfterTheOdometryStops) {
+  ros::NodeHandle nh;
+  ros::Publisher held = nh.advertise<nav_msgs::Odometry>("/odom", 10);
+  ros::Publisher plain = nh.advertise<nav_msgs::Odometry>("/odom_b", 10);
+  ASSERT_TRUE(
+      waitFor([&] { return held.getNumSubscribers() > 0 && plain.getNumSubscribers() > 0; }, 20.0));
+  tf2_ros::Buffer buffer;  // before the messages: tf is not latched
+  tf2_ros::TransformListener listener(buffer);
+  ros::WallDuration(0.5).sleep();
+  const ros::Time t0 = ros::Time::now();
+  for (int k = 0; k <= 4; ++k) {
+    nav_msgs::Odometry m;
+    m.header.stamp = t0 + ros::Duration(0.1 * k);
+    m.pose.pose.position.x = 0.1 * k;
+    m.pose.pose.orientation.w = 1.0;
+    m.twist.twist.linear.x = 1.0;
+    m.header.frame_id = "odom";
+    m.child_frame_id = "base_link";
+    held.publish(m);
+    m.header.frame_id = "odom_b";
+    m.child_frame_id = "base_b";
+    plain.publish(m);
+    ros::WallDuration(0.1).sleep();
+  }
+  const ros::Time last = t0 + ros::Duration(0.4);
+  const ros::Time later = last + ros::Duration(2.0);  // input_timeout is 0.5 s
+  ASSERT_TRUE(waitFor([&] { return buffer.canTransform("odom", "base_link", later); }, 10.0))
+      << "odom -> base_link not held after the odometry stopped";
+  EXPECT_NEAR(buffer.lookupTransform("odom", "base_link", later).transform.translation.x, 0.4,
+              1e-9);
+  EXPECT_TRUE(buffer.canTransform("odom_b", "base_b", last));
+  EXPECT_FALSE(buffer.canTransform("odom_b", "base_b", later));
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   ros::init(argc, argv, "test_node");

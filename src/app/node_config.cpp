@@ -11,6 +11,7 @@ NodeConfig readNodeConfig(const ParameterSource& source) {
   c.publish_tf = p.flag("publish_tf", c.publish_tf);
   c.publish_map_to_base = p.flag("publish_map_to_base", c.publish_map_to_base);
   c.publish_odom_tf = p.flag("publish_odom_tf", c.publish_odom_tf);
+  c.hold_odom_tf = p.flag("hold_odom_tf", c.hold_odom_tf);
   c.transform_tolerance = p.nonNegative("transform_tolerance", c.transform_tolerance);
   c.transform_publish_period =
       p.nonNegative("transform_publish_period", c.transform_publish_period);

@@ -26,6 +26,10 @@ struct NodeConfig {
   bool publish_tf = true;            ///< map -> odom (or map -> base_frame, see below)
   bool publish_map_to_base = false;  ///< no odom frame: publish map -> base_frame instead
   bool publish_odom_tf = false;      ///< broadcast odom -> base_frame from each odometry message
+  /// With publish_odom_tf: once no odometry came for input_timeout, keep broadcasting its last
+  /// pose on the transform timer, so that a tf listener started after a replay has the whole
+  /// tree. For replays only: on a robot it would make a dead odometry source look alive.
+  bool hold_odom_tf = false;
   double transform_tolerance = 0.1;  ///< map -> odom is stamped this much ahead [s]
   /// Wall period of the timer that republishes the latest map -> odom (gmapping's and
   /// slam_toolbox's transform_publish_period); 0: only after each scan [s].

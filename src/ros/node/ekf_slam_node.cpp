@@ -264,6 +264,11 @@ void EkfSlamNode::handleOdometry(const nav_msgs::Odometry::ConstPtr& msg) {
   if (config_.publish_odom_tf && odom.pose.allFinite()) {
     tf_broadcaster_.sendTransform(
         toTransformMsg(odom.pose, config_.odom_frame, config_.base_frame, msg->header.stamp));
+    have_odom_tf_ = true;
+    odom_tf_pose_ = odom.pose;
+    odom_tf_stamp_ = msg->header.stamp;
+    odom_tf_received_ = ros::WallTime::now();
+    odom_tf_held_ = false;
   }
   warnStatus(sequencer_->addOdometry(odom), odom.stamp, "odometry");
   drain();
@@ -620,7 +625,26 @@ void EkfSlamNode::onTransformTimer(const ros::WallTimerEvent&) {
   // ahead of now, as gmapping and slam_toolbox do, so lookups at now() succeed.
   const ros::Time now = ros::Time::now();
   if (now.isZero()) return;  // simulated time without /clock yet
-  sendMapTransform(now + ros::Duration(config_.transform_tolerance));
+  const ros::Time stamp = now + ros::Duration(config_.transform_tolerance);
+  sendMapTransform(stamp);
+  holdOdomTransform(stamp);
+}
+
+void EkfSlamNode::holdOdomTransform(const ros::Time& stamp) {
+  // Only once the odometry has stopped: while it flows, a pose stamped ahead of it would be
+  // interpolated against the next real one. A replay's end leaves a tf listener started later
+  // with no odom -> base_frame at all (rviz: no vehicle frame to follow); this keeps it.
+  if (!config_.publish_odom_tf || !config_.hold_odom_tf || !have_odom_tf_) return;
+  if ((ros::WallTime::now() - odom_tf_received_).toSec() < config_.input_timeout) return;
+  if (stamp <= odom_tf_stamp_) return;  // tf2 warns about repeated stamps
+  if (!odom_tf_held_) {
+    odom_tf_held_ = true;
+    ROS_INFO("ekf_slam: no odometry for %.1f s: holding %s -> %s at its last pose (hold_odom_tf)",
+             config_.input_timeout, config_.odom_frame.c_str(), config_.base_frame.c_str());
+  }
+  odom_tf_stamp_ = stamp;
+  tf_broadcaster_.sendTransform(
+      toTransformMsg(odom_tf_pose_, config_.odom_frame, config_.base_frame, stamp));
 }
 
 void EkfSlamNode::publishMapOutputs() {

@@ -120,6 +120,7 @@ class EkfSlamNode {
   void onInputTimer(const ros::WallTimerEvent&);
   void onVisualizationTimer(const ros::WallTimerEvent&);
   void onTransformTimer(const ros::WallTimerEvent&);
+  void holdOdomTransform(const ros::Time& stamp);
   void onDiagnosticsTimer(const ros::WallTimerEvent&);
   void resetAll(const std::string& why);
 
@@ -179,6 +180,13 @@ class EkfSlamNode {
   bool have_map_odom_ = false;
   Eigen::Vector3d map_odom_ = Eigen::Vector3d::Zero();
   ros::Time last_tf_stamp_;  ///< newest map transform sent (stamps must increase)
+  // odom -> base_frame as last broadcast from an odometry message (publish_odom_tf), held after
+  // the odometry stops with hold_odom_tf.
+  bool have_odom_tf_ = false;
+  Eigen::Vector3d odom_tf_pose_ = Eigen::Vector3d::Zero();
+  ros::Time odom_tf_stamp_;  ///< of the last message, or the last held broadcast
+  ros::WallTime odom_tf_received_;
+  bool odom_tf_held_ = false;  ///< holding now (logged once per stop)
 
   // Inputs that needed handling, reported with warnings, on /diagnostics and at exit.
   std::uint64_t scans_received_ = 0;

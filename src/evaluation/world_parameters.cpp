@@ -3,7 +3,6 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <stdexcept>
 
 #include "ekf_slam/core/common/coverage_grid.h"
 #include "ekf_slam/core/common/pose2d.h"
@@ -113,19 +112,21 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
 }
 
 std::map<std::string, std::string> trueNoiseParametersFor(const World& world) {
-  if (world.pose_delta_odometry)
-    throw std::invalid_argument(world.name + ": pose_delta odometry has no exact twist noise");
+  std::map<std::string, std::string> p = {{"sigma_range", text(world.noise.sigma_range)},
+                                          {"sigma_bearing", text(world.noise.sigma_bearing)}};
+  // pose_delta's isotropic translation noise has no exact counterpart of a speed noise: its
+  // odometry keeps pipelineParametersFor's values.
+  if (world.pose_delta_odometry) return p;
   // Each /odom message is one control step: per-message noise of its speed, and of its yaw rate
   // through the steering angle (TwistModel's steering form, as the aekf world's file has it).
   const double L = world.vehicle.wheelbase;
-  return {{"twist_sigma_v", text(world.noise.sigma_speed)},
-          {"twist_sigma_v_per_v", "0"},
-          {"twist_sigma_w", "0"},
-          {"twist_sigma_w_per_v", text(world.noise.sigma_steer / L)},
-          {"twist_steering_wheelbase", text(L)},
-          {"process_noise", "per_message"},
-          {"sigma_range", text(world.noise.sigma_range)},
-          {"sigma_bearing", text(world.noise.sigma_bearing)}};
+  p["twist_sigma_v"] = text(world.noise.sigma_speed);
+  p["twist_sigma_v_per_v"] = "0";
+  p["twist_sigma_w"] = "0";
+  p["twist_sigma_w_per_v"] = text(world.noise.sigma_steer / L);
+  p["twist_steering_wheelbase"] = text(L);
+  p["process_noise"] = "per_message";
+  return p;
 }
 
 PipelineConfig pipelineConfigFor(const World& world) {

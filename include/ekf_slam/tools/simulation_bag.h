@@ -42,7 +42,7 @@ struct SimulationBagOptions {
   bool markers = true;                 ///< also write the rviz marker topics
   /// --true-noise, for checking noise calibration (docs/calibration.md): the observations carry
   /// no covariance (the parameter file's sigma_range and sigma_bearing apply) and the file's
-  /// odometry noise is the simulator's own (sim::trueNoiseParametersFor). Twist worlds only.
+  /// odometry noise is the simulator's own (sim::trueNoiseParametersFor; twist worlds only).
   bool true_noise = false;
 };
 

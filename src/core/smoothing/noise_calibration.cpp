@@ -101,8 +101,12 @@ struct TermSums {
 void accumulate(const Split& split, const SmoothingResidual& r,
                 const std::array<double, kNoiseTerms>& theta, TermSums* sums) {
   const int d = split.dim;
-  const Eigen::MatrixXd C = split.covariance(theta).topLeftCorner(d, d);
+  // The weight the smoother used: an odometry link's covariance floored as it floors it (a
+  // standstill has no lateral noise).
+  Eigen::MatrixXd C = split.covariance(theta).topLeftCorner(d, d);
+  if (r.observation < 0) C.diagonal().array() += SmootherParams().min_variance;
   const Eigen::MatrixXd W = C.ldlt().solve(Eigen::MatrixXd::Identity(d, d));
+  if (!W.allFinite() || !r.leverage.allFinite()) return;
   const Eigen::VectorXd Wv = W * r.v.head(d);
   const Eigen::MatrixXd WH = W * r.leverage.topLeftCorner(d, d);
   for (int k = 0; k < 2; ++k) {

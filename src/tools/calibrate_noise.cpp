@@ -140,6 +140,7 @@ CalibrationRun runOnce(const CalibrateNoiseOptions& opt, int index,
     NoiseCalibrationParams p;
     p.sigma_range = config.sigma_range;
     p.sigma_bearing = config.sigma_bearing;
+    p.min_dof = opt.min_dof;
     run.calibration = calibrateNoise(recorder.scans(), landmarks, *model, p);
     if (!run.calibration.ok)
       throw std::runtime_error("run " + std::to_string(index) +
@@ -156,12 +157,15 @@ std::string snippet(const CalibrateNoiseOptions& opt, const CalibrateNoiseResult
     << "# " << (r.converged ? "converged" : "NOT converged") << " after " << r.runs.size() - 1
     << " run(s); standard deviations scaled by:";
   for (int t = 0; t < kNoiseTerms; ++t)
-    if (r.runs.front().calibration.terms[t].calibrated)
+    if (r.calibrated[t])
       y << " " << noiseTermName(static_cast<NoiseTerm>(t)) << " x" << number(r.factors[t], "%.3f")
         << ";";
   y << "\n";
   for (int t = 0; t < kNoiseTerms; ++t) {
-    if (!r.runs.front().calibration.terms[t].calibrated) continue;
+    if (r.undetermined[t])
+      y << "# " << noiseTermName(static_cast<NoiseTerm>(t))
+        << ": not determined by the runs (fewer effective dof than --min-dof): unchanged\n";
+    if (!r.calibrated[t]) continue;
     const std::vector<std::string> keys = keysOf(static_cast<NoiseTerm>(t), mode);
     if (keys.empty()) {
       y << "# " << noiseTermName(static_cast<NoiseTerm>(t))
@@ -191,9 +195,11 @@ nlohmann::json toJson(const CalibrationRun& run) {
   j["calibration_converged"] = c.converged;
   for (int t = 0; t < kNoiseTerms; ++t) {
     const NoiseTermEstimate& e = c.terms[t];
-    if (!e.calibrated) continue;
+    if (!e.calibrated && !e.undetermined) continue;
     j["terms"][noiseTermName(static_cast<NoiseTerm>(t))] = {{"residuals", e.residuals},
                                                             {"dof_share", e.dof_share},
+                                                            {"effective_dof", e.effective_dof},
+                                                            {"undetermined", e.undetermined},
                                                             {"cost_over_expected", e.ratio_before},
                                                             {"factor", e.factor}};
   }
@@ -205,13 +211,15 @@ void printReport(const CalibrateNoiseResult& r, std::ostream& out) {
   const CalibrationRun& last = r.runs.back();
   out << "\nnoise term                  scalar residuals  dof share  cost/expected as given  "
          "factor (std dev)\n";
+  // dof share: the expected cost per scalar residual (what the fit leaves of them).
   for (int t = 0; t < kNoiseTerms; ++t) {
     const NoiseTermEstimate& e = first.calibration.terms[t];
-    if (!e.calibrated) continue;
-    char line[160];
-    std::snprintf(line, sizeof(line), "%-27s %16zu  %9.3f  %22.3f  %16.3f\n",
+    if (!r.calibrated[t] && !r.undetermined[t]) continue;
+    char line[200];
+    std::snprintf(line, sizeof(line), "%-27s %16zu  %9.3f  %22.3f  %16s\n",
                   noiseTermName(static_cast<NoiseTerm>(t)), e.residuals, e.dof_share,
-                  e.ratio_before, r.factors[t]);
+                  e.ratio_before,
+                  r.undetermined[t] ? "undetermined" : number(r.factors[t], "%.3f").c_str());
     out << line;
   }
   out << "\n                                   as given   calibrated\n";
@@ -227,7 +235,7 @@ void printReport(const CalibrateNoiseResult& r, std::ostream& out) {
   row("smoother cost per dof (1)", first.calibration.cost_per_dof_before,
       last.calibration.cost_per_dof_before);
   for (int t = 0; t < kNoiseTerms; ++t) {
-    if (!first.calibration.terms[t].calibrated) continue;
+    if (!r.calibrated[t]) continue;
     const std::string name =
         std::string("  ") + noiseTermName(static_cast<NoiseTerm>(t)) + " cost/expected";
     row(name.c_str(), first.calibration.terms[t].ratio_before,
@@ -258,7 +266,9 @@ CalibrateNoiseResult calibrateNoiseOnBag(const CalibrateNoiseOptions& opt, std::
     bool small = true;
     for (int t = 0; t < kNoiseTerms; ++t) {
       const NoiseTermEstimate& e = run.calibration.terms[t];
+      result.undetermined[t] = result.undetermined[t] || e.undetermined;
       if (!e.calibrated) continue;
+      result.calibrated[t] = true;
       result.factors[t] *= e.factor;
       if (std::abs(e.factor - 1.0) > opt.tolerance) small = false;
       for (const std::string& key : keysOf(static_cast<NoiseTerm>(t), mode)) noise[key] *= e.factor;
@@ -275,6 +285,8 @@ CalibrateNoiseResult calibrateNoiseOnBag(const CalibrateNoiseOptions& opt, std::
       break;
     }
   }
+  for (int t = 0; t < kNoiseTerms; ++t)
+    result.undetermined[t] = result.undetermined[t] && !result.calibrated[t];
   // The check: the calibrated values as a user would run them.
   log << "calibrate_noise: check run with the calibrated values\n";
   result.runs.push_back(
@@ -287,7 +299,7 @@ CalibrateNoiseResult calibrateNoiseOnBag(const CalibrateNoiseOptions& opt, std::
   j["converged"] = result.converged;
   for (const CalibrationRun& run : result.runs) j["runs"].push_back(toJson(run));
   for (int t = 0; t < kNoiseTerms; ++t)
-    if (result.runs.front().calibration.terms[t].calibrated)
+    if (result.calibrated[t])
       j["factors"][noiseTermName(static_cast<NoiseTerm>(t))] = result.factors[t];
   std::ofstream(opt.out_dir + "/calibration.json") << j.dump(2) << "\n";
   if (!y) throw std::runtime_error(opt.out_dir + "/calibrated_noise.yaml: cannot write");
@@ -299,17 +311,19 @@ CalibrateNoiseResult calibrateNoiseOnBag(const CalibrateNoiseOptions& opt, std::
 void printCalibrateNoiseUsage(std::ostream& out) {
   out << "usage: calibrate_noise --bag FILE --params YAML --out DIR [--associator NAME]\n"
          "       [--set NAME=VALUE | --set SECTION/NAME=VALUE ...] [--runs N] [--tolerance X]\n"
-         "       [--no-progress]\n"
+         "       [--min-dof K] [--no-progress]\n"
          "Runs the bag (as ekf_slam_offline), smooths the run and estimates by what factor each\n"
          "noise term's standard deviations should be scaled: odometry translation and rotation\n"
          "(twist_sigma_v/_per_v and twist_sigma_w/_per_v, or the pose_delta alphas), range and\n"
          "bearing (sigma_range, sigma_bearing), and the observations' own covariance when they\n"
          "bring one. Reruns with the scaled values until a run's factors are within --tolerance\n"
-         "of 1 (default 0.02) or --runs runs (default 4), then once more to check. Writes\n"
+         "of 1 (default 0.02) or --runs runs (default 6), then once more to check. Writes\n"
          "DIR/calibrated_noise.yaml (a snippet for the parameter file), DIR/calibration.json,\n"
          "DIR/run_K/ (each run's ekf_slam_offline outputs), and prints the before / after NIS and\n"
          "chi-square figures (docs/calibration.md).\n"
-         "  --set      a parameter over the file's, e.g. --set sigma_range=1.0\n";
+         "  --set      a parameter over the file's, e.g. --set sigma_range=1.0\n"
+         "  --min-dof  a term with fewer effective degrees of freedom in a run (what the smoother\n"
+         "             leaves of its residuals) is not calibrated (default 100)\n";
 }
 
 bool parseCalibrateNoiseArguments(const std::vector<std::string>& args, CalibrateNoiseOptions* o,
@@ -326,7 +340,7 @@ bool parseCalibrateNoiseArguments(const std::vector<std::string>& args, Calibrat
       continue;
     }
     if (a != "--bag" && a != "--params" && a != "--out" && a != "--associator" && a != "--set" &&
-        a != "--runs" && a != "--tolerance") {
+        a != "--runs" && a != "--tolerance" && a != "--min-dof") {
       *error = "unknown argument '" + a + "'";
       return false;
     }
@@ -359,7 +373,7 @@ bool parseCalibrateNoiseArguments(const std::vector<std::string>& args, Calibrat
     } else {
       char* end = nullptr;
       const double x = std::strtod(v.c_str(), &end);
-      const bool integer = a != "--tolerance";
+      const bool integer = a == "--runs";
       if (v.empty() || *end != '\0' || !std::isfinite(x) || x <= 0.0 ||
           (integer && (x != std::floor(x) || x > 1000))) {
         *error = a + " needs a positive " + (integer ? "integer" : "number") + ", got '" + v + "'";
@@ -367,6 +381,7 @@ bool parseCalibrateNoiseArguments(const std::vector<std::string>& args, Calibrat
       }
       if (a == "--runs") o->max_runs = static_cast<int>(x);
       if (a == "--tolerance") o->tolerance = x;
+      if (a == "--min-dof") o->min_dof = x;
     }
   }
   if (o->bag_path.empty() || o->out_dir.empty()) {

@@ -30,9 +30,10 @@ struct CalibrateNoiseOptions {
   std::string associator;  ///< empty: the file's
   /// --set NAME=VALUE or SECTION/NAME=VALUE, over the file (e.g. deliberately wrong sigmas).
   std::vector<OfflineOptions::Override> overrides;
-  int max_runs = 4;
+  int max_runs = 6;
   /// A run whose factors are all within this of 1 ends the calibration.
   double tolerance = 0.02;
+  double min_dof = 100.0;  ///< NoiseCalibrationParams::min_dof
   bool progress = true;
 };
 
@@ -60,6 +61,8 @@ struct CalibrateNoiseResult {
   std::map<std::string, double> before, after;  ///< the noise parameters, as given and calibrated
   /// Per term, the factor of its standard deviations against the file (product over the runs).
   std::array<double, kNoiseTerms> factors{};
+  /// Calibrated in at least one run; seen in some run but never calibrated (too few dof).
+  std::array<bool, kNoiseTerms> calibrated{}, undetermined{};
   bool converged = false;
   std::string yaml;  ///< the snippet
 };

@@ -173,12 +173,21 @@ NoiseCalibrationResult calibrateNoise(const std::vector<SmoothingScan>& scans,
     bool done = true;
     for (int t = 0; t < kNoiseTerms; ++t) {
       NoiseTermEstimate& e = result.terms[t];
-      if (sums.expected[t] <= 0.0) continue;
+      if (sums.expected[t] <= 0.0 || e.undetermined) continue;
       const double ratio = sums.cost[t] / sums.expected[t];
       if (it == 0) {
         e.residuals = sums.residuals[t];
         e.ratio_before = ratio;
+        e.effective_dof = sums.expected[t];
         e.dof_share = sums.expected[t] / static_cast<double>(sums.residuals[t]);
+      }
+      if (sums.expected[t] < params.min_dof) {
+        // Too little left of it, as given or on the way: back to the given value, for good.
+        e.undetermined = true;
+        e.calibrated = false;
+        if (theta[t] != 1.0) done = false;  // smooth again without this term's change
+        theta[t] = 1.0;
+        continue;
       }
       e.ratio_after = ratio;
       e.calibrated = true;

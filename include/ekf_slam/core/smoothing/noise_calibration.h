@@ -46,6 +46,11 @@ struct NoiseCalibrationParams {
   int max_iterations = 60;
   /// Converged when every term's cost is within this fraction of its expected value.
   double tolerance = 2e-3;
+  /// A term whose expected cost with the noise as given (its effective degrees of freedom: what
+  /// the fit leaves of its residuals) is below this is not calibrated: the run does not determine
+  /// it (a variance estimated from k dof has a relative spread of sqrt(2 / k): 14 % at 100),
+  /// and Foerstner's iteration drifts for such a term. Its factor stays 1.
+  double min_dof = 100.0;
 };
 
 struct NoiseTermEstimate {
@@ -57,6 +62,9 @@ struct NoiseTermEstimate {
   /// The expected cost with the noise as given over the number of scalar residuals: the share
   /// of its degrees of freedom the smoother leaves to the term (below 1: part was fitted away).
   double dof_share = 0.0;
+  double effective_dof = 0.0;  ///< dof_share x residuals
+  /// Seen but not calibrated: fewer effective dof than NoiseCalibrationParams::min_dof.
+  bool undetermined = false;
   /// theta: the term's covariance should be multiplied by this; `factor` = sqrt(theta) for its
   /// standard deviations. 1 for a term without residuals or with no share of the covariance.
   double variance_factor = 1.0;

@@ -181,8 +181,10 @@ NoiseCalibrationResult calibrateNoise(const std::vector<SmoothingScan>& scans,
         e.effective_dof = sums.expected[t];
         e.dof_share = sums.expected[t] / static_cast<double>(sums.residuals[t]);
       }
-      if (sums.expected[t] < params.min_dof) {
-        // Too little left of it, as given or on the way: back to the given value, for good.
+      if (sums.expected[t] < params.min_dof && ratio < 1.0) {
+        // Little is left of it and it shrinks: a weakly determined variance heads for zero,
+        // taking its last degrees of freedom with it. Back to the given value, for good. (One
+        // whose cost is above its expectation grows, and gains dof as it does.)
         e.undetermined = true;
         e.calibrated = false;
         if (theta[t] != 1.0) done = false;  // smooth again without this term's change

@@ -46,10 +46,11 @@ struct NoiseCalibrationParams {
   int max_iterations = 60;
   /// Converged when every term's cost is within this fraction of its expected value.
   double tolerance = 2e-3;
-  /// A term whose expected cost with the noise as given (its effective degrees of freedom: what
-  /// the fit leaves of its residuals) is below this is not calibrated: the run does not determine
-  /// it (a variance estimated from k dof has a relative spread of sqrt(2 / k): 14 % at 100),
-  /// and Foerstner's iteration drifts for such a term. Its factor stays 1.
+  /// A term whose expected cost (its effective degrees of freedom: what the fit leaves of its
+  /// residuals) is below this while its cost says it should shrink is not calibrated: the run
+  /// does not determine it (a variance estimated from k dof has a relative spread of
+  /// sqrt(2 / k), 14 % at 100), and Foerstner's iteration drives such a variance to zero. Its
+  /// factor stays 1.
   double min_dof = 100.0;
 };
 
@@ -63,7 +64,7 @@ struct NoiseTermEstimate {
   /// of its degrees of freedom the smoother leaves to the term (below 1: part was fitted away).
   double dof_share = 0.0;
   double effective_dof = 0.0;  ///< dof_share x residuals
-  /// Seen but not calibrated: fewer effective dof than NoiseCalibrationParams::min_dof.
+  /// Seen but not calibrated: too few effective dof (NoiseCalibrationParams::min_dof).
   bool undetermined = false;
   /// theta: the term's covariance should be multiplied by this; `factor` = sqrt(theta) for its
   /// standard deviations. 1 for a term without residuals or with no share of the covariance.

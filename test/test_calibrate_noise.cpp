@@ -11,6 +11,7 @@
 
 #include <Eigen/LU>
 
+#include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/smoothing/smoothing_recorder.h"
 #include "ekf_slam/evaluation/simulation/simulator.h"
 #include "ekf_slam/evaluation/world_parameters.h"
@@ -126,6 +127,37 @@ TEST(CalibrateNoise, LeverageAddsUpToTheDegreesOfFreedom) {
     expected += d - (W * res.leverage.topLeftCorner(d, d)).trace();
   }
   EXPECT_NEAR(expected, static_cast<double>(r.degrees_of_freedom), 1e-3 * r.degrees_of_freedom);
+}
+
+// The odometry noise's shares by term add up to the whole: in the model (with and without the
+// steering form, per message and per second) and composed over a scan's messages (no additive
+// noise in the file).
+TEST(CalibrateNoise, NoiseSharesAddUpToTheCovariance) {
+  for (const double wheelbase : {0.0, 2.0})
+    for (const bool per_second : {false, true}) {
+      TwistParams p;
+      p.steering_wheelbase = wheelbase;
+      p.per_second = per_second;
+      const TwistModel model(p);
+      for (const Eigen::Vector2d u : {Eigen::Vector2d(3.0, 0.4), Eigen::Vector2d(0.0, 0.1)}) {
+        const MotionStep s = model.step(Eigen::Vector3d(1.0, 2.0, 0.3), u, 0.05);
+        EXPECT_TRUE(s.Q.isApprox(s.Q_translation + s.Q_rotation, 1e-12)) << s.Q;
+        EXPECT_GT(s.Q_rotation.norm(), 0.0);
+      }
+    }
+  const TrueNoiseBag bag("tiny", 4);
+  OfflineOptions o = test_files::quietOfflineOptions(bag.summary.bag_path, bag.summary.params_path,
+                                                     (bag.dir.path() / "run").string());
+  int checked = 0;
+  o.on_scan = [&](const ScanReport& r, const SlamPipeline&) {
+    if (!r.has_motion) return;
+    ++checked;
+    const Eigen::Matrix3d sum = r.motion_covariance_translation + r.motion_covariance_rotation;
+    EXPECT_LT((sum - r.motion_covariance).norm(), 1e-9 * r.motion_covariance.norm());
+  };
+  std::ostringstream log;
+  runOffline(o, log);
+  EXPECT_GT(checked, 100);
 }
 
 TEST(CalibrateNoise, RefusesBadArguments) {

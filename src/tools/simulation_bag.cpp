@@ -249,7 +249,7 @@ std::string worldParamsYaml(const sim::World& world, const std::vector<std::stri
 
 SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std::ostream& log) {
   if (options.out_path.empty()) throw std::invalid_argument("no output bag path given (--out)");
-  sim::World world = sim::makeWorld(options.world);            // throws listing the names
+  sim::World world = sim::makeWorld(options.world);  // throws listing the names
   if (options.clutter_rate) {
     if (!(std::isfinite(*options.clutter_rate) && *options.clutter_rate >= 0.0)) {
       throw std::invalid_argument("clutter rate must be a finite number >= 0");

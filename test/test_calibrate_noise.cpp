@@ -160,6 +160,25 @@ TEST(CalibrateNoise, NoiseSharesAddUpToTheCovariance) {
   EXPECT_GT(checked, 100);
 }
 
+// The same parameter rules as every entry point (it is the offline runner's builder).
+TEST(CalibrateNoise, NamesAMisspeltParameter) {
+  const TrueNoiseBag bag("tiny", 5);
+  CalibrateNoiseOptions o;
+  o.bag_path = bag.summary.bag_path;
+  o.params_path = bag.summary.params_path;
+  o.out_dir = (bag.dir.path() / "calibration").string();
+  o.progress = false;
+  o.overrides.push_back({"", "sigma_rnage", "0.1"});
+  std::ostringstream log;
+  try {
+    calibrateNoiseOnBag(o, log);
+    ADD_FAILURE() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean sigma_range"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(CalibrateNoise, RefusesBadArguments) {
   CalibrateNoiseOptions o;
   bool help = false;

@@ -74,8 +74,9 @@ add_library(ekf_slam_core
   src/core/pipeline/recovery.cpp
   src/core/pipeline/map_file.cpp
   src/core/pipeline/slam_pipeline.cpp
-  # smoothing: the batch smoother of a finished run
+  # smoothing: the batch smoother of a finished run, and the noise calibration built on it
   src/core/smoothing/batch_smoother.cpp
-  src/core/smoothing/smoothing_recorder.cpp)
+  src/core/smoothing/smoothing_recorder.cpp
+  src/core/smoothing/noise_calibration.cpp)
 target_include_directories(ekf_slam_core PUBLIC include)
 target_link_libraries(ekf_slam_core PUBLIC Eigen3::Eigen)

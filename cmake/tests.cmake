@@ -87,7 +87,7 @@ ekf_slam_test(test_node_faults ROSTEST node_faults
 
 # The tools, and every entry point against the others.
 foreach(t test_simulate test_simulate_beacons test_offline_recovery test_offline_smoothing
-          test_evaluate_beacons)
+          test_evaluate_beacons test_calibrate_noise)
   ekf_slam_test(${t} LIBS ekf_slam_tools nlohmann_json::nlohmann_json)
 endforeach()
 ekf_slam_test(test_evaluate LIBS ekf_slam_tools PROGRAMS evaluate)

@@ -1,17 +1,20 @@
 # The test bench's programs (include/ekf_slam/tools, src/tools): simulated worlds as bags
 # (`simulate`), Monte Carlo evaluation of the associators (`evaluate`), the relocalisation
-# experiment on a bag (`relocalisation_experiment`).
+# experiment on a bag (`relocalisation_experiment`), noise calibration from a bag
+# (`calibrate_noise`).
 add_library(ekf_slam_tools
   src/tools/simulation_bag.cpp
   src/tools/evaluate.cpp
-  src/tools/relocalisation_experiment.cpp)
+  src/tools/relocalisation_experiment.cpp
+  src/tools/calibrate_noise.cpp)
 target_link_libraries(ekf_slam_tools PUBLIC ekf_slam_offline_runner ekf_slam_evaluation
                                             ekf_slam_ros PRIVATE nlohmann_json::nlohmann_json)
 
 add_executable(simulate src/nodes/simulate.cpp)
 add_executable(evaluate src/nodes/evaluate.cpp)
 add_executable(relocalisation_experiment src/nodes/relocalisation_experiment.cpp)
-set(EKF_SLAM_TOOL_PROGRAMS simulate evaluate relocalisation_experiment)
+add_executable(calibrate_noise src/nodes/calibrate_noise.cpp)
+set(EKF_SLAM_TOOL_PROGRAMS simulate evaluate relocalisation_experiment calibrate_noise)
 foreach(t ${EKF_SLAM_TOOL_PROGRAMS})
   target_link_libraries(${t} ekf_slam_tools)
 endforeach()

@@ -111,6 +111,24 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
   return p;
 }
 
+std::map<std::string, std::string> trueNoiseParametersFor(const World& world) {
+  std::map<std::string, std::string> p = {{"sigma_range", text(world.noise.sigma_range)},
+                                          {"sigma_bearing", text(world.noise.sigma_bearing)}};
+  // pose_delta's isotropic translation noise has no exact counterpart of a speed noise: its
+  // odometry keeps pipelineParametersFor's values.
+  if (world.pose_delta_odometry) return p;
+  // Each /odom message is one control step: per-message noise of its speed, and of its yaw rate
+  // through the steering angle (TwistModel's steering form, as the aekf world's file has it).
+  const double L = world.vehicle.wheelbase;
+  p["twist_sigma_v"] = text(world.noise.sigma_speed);
+  p["twist_sigma_v_per_v"] = "0";
+  p["twist_sigma_w"] = "0";
+  p["twist_sigma_w_per_v"] = text(world.noise.sigma_steer / L);
+  p["twist_steering_wheelbase"] = text(L);
+  p["process_noise"] = "per_message";
+  return p;
+}
+
 PipelineConfig pipelineConfigFor(const World& world) {
   return readPipelineConfig(MapParameterSource(pipelineParametersFor(world)));
 }

@@ -233,14 +233,17 @@ std::string simulationParamsYaml(
   return y.str();
 }
 
-std::string worldParamsYaml(const sim::World& world,
-                            const std::vector<std::string>& header_comment) {
+std::string worldParamsYaml(const sim::World& world, const std::vector<std::string>& header_comment,
+                            bool true_noise) {
   std::map<std::string, std::map<std::string, std::string>> assoc;
   for (const char* a : kAssociators) {
     auto p = sim::associatorParametersFor(world, a);
     if (!p.empty() || std::string(a) == "DJNN") assoc[a] = std::move(p);
   }
-  return simulationParamsYaml(world.name, sim::pipelineParametersFor(world), assoc, header_comment,
+  std::map<std::string, std::string> pipeline = sim::pipelineParametersFor(world);
+  if (true_noise)
+    for (const auto& [name, value] : sim::trueNoiseParametersFor(world)) pipeline[name] = value;
+  return simulationParamsYaml(world.name, pipeline, assoc, header_comment,
                               sim::extractorFor(world));
 }
 
@@ -385,6 +388,7 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
       for (std::size_t i = 0; i < observations.size(); ++i) {
         const sim::SimObservation& z = set.observations[i];
         LandmarkObservation o = toObservationMsg(observations[i]);
+        if (options.true_noise) o.covariance = {0.0, 0.0, 0.0, 0.0};  // the YAML's sigmas apply
         o.has_truth_id = true;
         o.truth_id = z.truth_id;
         msg.observations.push_back(o);
@@ -454,7 +458,10 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
         "  rosrun ekf_slam ekf_slam_offline --bag BAG --params THIS_FILE --out DIR",
         "  roslaunch ekf_slam simulation.launch bag:=BAG params:=THIS_FILE"};
     std::ofstream out(s.params_path);
-    out << worldParamsYaml(world, comment);
+    if (options.true_noise)
+      comment.push_back(
+          "--true-noise: observations without covariance, the simulator's own noise below.");
+    out << worldParamsYaml(world, comment, options.true_noise);
     out.close();
     if (!out) throw std::runtime_error(s.params_path + ": cannot write the parameter file");
   }
@@ -466,7 +473,7 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
 void printSimulateUsage(std::ostream& out, const std::string& program) {
   out << "Usage: " << program
       << " --world NAME --out FILE.bag [--seed N] [--params-out FILE | --no-params]\n"
-      << "       [--clutter-rate X] [--movers N] [--no-markers]\n"
+      << "       [--clutter-rate X] [--movers N] [--no-markers] [--true-noise]\n"
       << "       " << program << " --list | --help\n"
       << "\n"
       << "Simulates a world (docs/simulation.md) and writes it as a bag the ekf_slam node and\n"
@@ -483,6 +490,8 @@ void printSimulateUsage(std::ostream& out, const std::string& program) {
       << "  --clutter-rate X   mean clutter returns per observation set (overrides the world's)\n"
       << "  --movers N         number of moving objects (overrides the world's)\n"
       << "  --no-markers       leave out /true_map_markers and /movers_markers\n"
+      << "  --true-noise       observations without covariance and the YAML's noise the\n"
+      << "                     simulator's own (checking calibrate_noise, docs/calibration.md)\n"
       << "  --list             print the worlds with a one-line description\n"
       << "  --help             this text\n"
       << "\n"
@@ -520,6 +529,10 @@ bool parseSimulateArguments(const std::vector<std::string>& args, SimulationBagO
     }
     if (a == "--no-markers") {
       o->markers = false;
+      continue;
+    }
+    if (a == "--true-noise") {
+      o->true_noise = true;
       continue;
     }
     if (a != "--world" && a != "--seed" && a != "--out" && a != "--params-out" &&

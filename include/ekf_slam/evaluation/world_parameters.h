@@ -17,6 +17,11 @@ namespace sim {
 /// the world's observation noise, observation range covering the sensor (a large finite value
 /// for whole-map worlds), min range 0.
 std::map<std::string, std::string> pipelineParametersFor(const World& world);
+/// The simulator's own noise as pipeline parameters, where pipelineParametersFor gives the
+/// datasheet's bound: speed and steering-angle noise of each control step on the wheelbase
+/// (twist_steering_wheelbase), the range and bearing noise. The known answer of noise
+/// calibration (docs/calibration.md). A pose_delta world: the observation noise only.
+std::map<std::string, std::string> trueNoiseParametersFor(const World& world);
 /// readPipelineConfig(pipelineParametersFor(world)).
 PipelineConfig pipelineConfigFor(const World& world);
 

@@ -1,5 +1,5 @@
-// Writes a simulated world (ekf_slam/evaluation/simulation/simulator.h, docs/simulation.md) into a ROS
-// bag that the node and the offline runner consume as they consume a real one, plus a parameter
+// Writes a simulated world (ekf_slam/evaluation/simulation/simulator.h, docs/simulation.md) into a
+// ROS bag that the node and the offline runner consume as they consume a real one, plus a parameter
 // YAML:
 //
 //   rosrun ekf_slam simulate --world tiny --out /tmp/tiny.bag       # also writes /tmp/tiny.yaml
@@ -40,6 +40,10 @@ struct SimulationBagOptions {
   std::optional<double> clutter_rate;  ///< overrides world.clutter_rate
   std::optional<int> movers;           ///< overrides world.movers.count
   bool markers = true;                 ///< also write the rviz marker topics
+  /// --true-noise, for checking noise calibration (docs/calibration.md): the observations carry
+  /// no covariance (the parameter file's sigma_range and sigma_bearing apply) and the file's
+  /// odometry noise is the simulator's own (sim::trueNoiseParametersFor; twist worlds only).
+  bool true_noise = false;
 };
 
 /// What was written (the numbers simulateMain prints).
@@ -77,8 +81,8 @@ std::string simulationParamsYaml(
 
 /// simulationParamsYaml for `world` with its own pipeline, associator and extractor parameters:
 /// what `simulate` writes beside the bag (and config/<world>.yaml holds for the shipped worlds).
-std::string worldParamsYaml(const sim::World& world,
-                            const std::vector<std::string>& header_comment);
+std::string worldParamsYaml(const sim::World& world, const std::vector<std::string>& header_comment,
+                            bool true_noise = false);
 
 /// Simulates and writes the bag (and the YAML unless !write_params). Throws
 /// std::invalid_argument for an unknown world or invalid overrides and std::runtime_error when a

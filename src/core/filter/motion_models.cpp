@@ -54,6 +54,8 @@ MotionStep AckermannModel::step(const Eigen::Vector3d& x, const Input& u, double
   out.pose = predict(x, u, dt, &out.F, &G);
   const Eigen::Vector2d n(p_.sigma_speed * p_.sigma_speed, p_.sigma_steering * p_.sigma_steering);
   out.Q.noalias() = G * n.asDiagonal() * G.transpose();
+  out.Q_translation.noalias() = n(0) * G.col(0) * G.col(0).transpose();
+  out.Q_rotation.noalias() = n(1) * G.col(1) * G.col(1).transpose();
   out.Q += p_.additive * dt;
   return out;
 }
@@ -121,6 +123,11 @@ MotionStep TwistModel::step(const Eigen::Vector3d& x, const Input& u, double dt,
   // with dt, so Q grows with dt (at dt = 0, G = 0: no noise rather than 0 * inf).
   if (p_.per_second) n = dt > 0.0 ? Eigen::Matrix2d(n / dt) : Eigen::Matrix2d::Zero();
   out.Q.noalias() = G * n * G.transpose();
+  Eigen::Matrix2d speed, turn;
+  twistCovarianceTerms(u, &speed, &turn);
+  const double per_dt = p_.per_second ? (dt > 0.0 ? 1.0 / dt : 0.0) : 1.0;
+  out.Q_translation.noalias() = per_dt * G * speed * G.transpose();
+  out.Q_rotation.noalias() = per_dt * G * turn * G.transpose();
   out.Q += p_.additive * dt;
   return out;
 }
@@ -147,6 +154,22 @@ Eigen::Matrix2d TwistModel::twistCovariance(const Input& u) const {
   return n;
 }
 
+void TwistModel::twistCovarianceTerms(const Input& u, Eigen::Matrix2d* speed,
+                                      Eigen::Matrix2d* turn) const {
+  // The same terms as twistCovariance(), kept apart.
+  const double av = std::abs(u(0));
+  const double sv = p_.sigma_v + p_.sigma_v_per_v * av;
+  double sw = p_.sigma_w + p_.sigma_w_per_v * av;
+  *speed << sv * sv, 0.0, 0.0, 0.0;
+  const double L = p_.steering_wheelbase;
+  if (L > 0.0 && av > 0.0) {
+    const double k = std::clamp(u(1) / u(0), -kMaxTanSteering / L, kMaxTanSteering / L);
+    sw = p_.sigma_w + p_.sigma_w_per_v * av * (1.0 + L * L * k * k);
+    *speed << sv * sv, k * sv * sv, k * sv * sv, k * k * sv * sv;
+  }
+  *turn << 0.0, 0.0, 0.0, sw * sw;
+}
+
 // --- Pose delta --------------------------------------------------------------------------------
 
 Eigen::Vector3d PoseDeltaModel::predict(const Eigen::Vector3d& x, const Input& u, double /*dt*/,
@@ -170,6 +193,8 @@ MotionStep PoseDeltaModel::step(const Eigen::Vector3d& x, const Input& u, double
   const double sr = p_.alpha_rot_per_rot * rot + p_.alpha_rot_per_trans * trans;
   const Eigen::Vector3d n(st * st, st * st, sr * sr);
   out.Q.noalias() = G * n.asDiagonal() * G.transpose();
+  out.Q_translation.noalias() = st * st * G.leftCols<2>() * G.leftCols<2>().transpose();
+  out.Q_rotation.noalias() = sr * sr * G.col(2) * G.col(2).transpose();
   out.Q += p_.additive;
   return out;
 }

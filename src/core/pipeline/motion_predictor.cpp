@@ -33,6 +33,8 @@ void MotionPredictor::reset() {
   motion_valid_ = false;
   motion_.setZero();
   motion_covariance_.setZero();
+  motion_translation_.setZero();
+  motion_rotation_.setZero();
 }
 
 Eigen::Matrix3d MotionPredictor::poseCovariance() const {
@@ -57,6 +59,11 @@ void MotionPredictor::applied() {
   odometry_ = composePose(odometry_, delta);
   motion_covariance_ =
       carriedCovariance(motion_, motion_covariance_, delta, filter_.pose().z(), pending_.Q);
+  // Its shares by noise term, carried the same (linear) way.
+  motion_translation_ = carriedCovariance(motion_, motion_translation_, delta, filter_.pose().z(),
+                                          pending_.Q_translation);
+  motion_rotation_ =
+      carriedCovariance(motion_, motion_rotation_, delta, filter_.pose().z(), pending_.Q_rotation);
   motion_ = composePose(motion_, delta);
   pending_steps_ = 0;
 }
@@ -65,9 +72,13 @@ void MotionPredictor::takeMotion(ScanReport* report) {
   report->has_motion = motion_valid_;
   report->motion = motion_;
   report->motion_covariance = motion_covariance_;
+  report->motion_covariance_translation = motion_translation_;
+  report->motion_covariance_rotation = motion_rotation_;
   motion_valid_ = true;
   motion_.setZero();
   motion_covariance_.setZero();
+  motion_translation_.setZero();
+  motion_rotation_.setZero();
 }
 
 void MotionPredictor::compose(const MotionStep& s) {
@@ -82,6 +93,7 @@ void MotionPredictor::compose(const MotionStep& s) {
     // the pose-map block F2 F1 P_vm likewise.
     pending_.pose = s.pose;
     pending_.Q = s.F * pending_.Q * s.F.transpose() + s.Q;
+    composeTerms(s);
     pending_.F = s.F * pending_.F;
   } else {
     // With correction states c (constant in a prediction, plus a random walk) each step is
@@ -94,10 +106,16 @@ void MotionPredictor::compose(const MotionStep& s) {
                  s.Fc * F2Qvc1.transpose() + s.Fc * pending_.Qc * s.Fc.transpose() + s.Q;
     pending_.Qvc = F2Qvc1 + s.Fc * pending_.Qc + s.Qvc;
     pending_.Qc += s.Qc;
+    composeTerms(s);  // the odometry's own noise terms carry no correction-state share
     pending_.Fc = s.F * pending_.Fc + s.Fc;
     pending_.F = s.F * pending_.F;
   }
   ++pending_steps_;
+}
+
+void MotionPredictor::composeTerms(const MotionStep& s) {
+  pending_.Q_translation = s.F * pending_.Q_translation * s.F.transpose() + s.Q_translation;
+  pending_.Q_rotation = s.F * pending_.Q_rotation * s.F.transpose() + s.Q_rotation;
 }
 
 void MotionPredictor::composeStep(double dt) {

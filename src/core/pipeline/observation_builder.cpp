@@ -84,7 +84,10 @@ bool ObservationBuilder::extract(const LaserScanData& scan, std::vector<Observat
     const double range = o.z(0);
     if (!(range >= config_.min_observation_range && range <= config_.max_observation_range))
       continue;
-    if (o.R.isZero(0.0)) o.R = R;
+    if (o.R.isZero(0.0)) {
+      o.R = R;
+      o.default_covariance = true;
+    }
     // A plugin's output is checked like any external observation.
     if (!(o.z.allFinite() && o.R.allFinite() && o.R(0, 0) > 0.0 && o.R(1, 1) > 0.0 &&
           o.R.determinant() > 0.0 && !std::isinf(o.descriptor))) {
@@ -106,7 +109,10 @@ std::vector<Observation> ObservationBuilder::check(std::vector<Observation> obse
   report->input_index.reserve(observations.size());
   for (std::size_t i = 0; i < observations.size(); ++i) {
     Observation o = observations[i];
-    if (o.R.isZero(0.0)) o.R = defaultCovariance(o, R_default);
+    if (o.R.isZero(0.0)) {
+      o.R = defaultCovariance(o, R_default);
+      o.default_covariance = true;
+    }
     const bool ok = o.z.allFinite() && (o.kind == MeasurementKind::kCartesian || o.z(0) >= 0.0) &&
                     o.R.allFinite() && o.R(0, 0) > 0.0 && o.R(1, 1) > 0.0 &&
                     o.R.determinant() > 0.0 && !std::isinf(o.descriptor);

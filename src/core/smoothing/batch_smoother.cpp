@@ -1,5 +1,6 @@
 #include "ekf_slam/core/smoothing/batch_smoother.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -44,6 +45,7 @@ using Triplets = std::vector<Eigen::Triplet<double>>;
 // One observation residual: scan pose i, landmark column k.
 struct ObservationTerm {
   int scan;
+  int index;  // in the scan's observations
   int landmark;
   Eigen::Vector2d z;
   Eigen::Matrix2d W;  // R^-1
@@ -78,6 +80,65 @@ void addLower(Triplets* t, int p, int q, const A& Jp, const B& W, const C& Jq) {
       if (p + r >= q + c) t->emplace_back(p + r, q + c, M(r, c));
 }
 
+// The entries of N^-1 on the sparsity pattern of N's factor (Takahashi's equations): every block
+// a residual couples is there, at the cost of one pass over the factor (sum of its squared column
+// counts) instead of a solve per unknown. N = P^T L D L^T P, L unit lower triangular.
+class SelectedInverse {
+ public:
+  template <class Solver>
+  explicit SelectedInverse(const Solver& solver)
+      : L_(solver.matrixL().nestedExpression()), d_(solver.vectorD()) {
+    const auto& P = solver.permutationP();
+    const int n = static_cast<int>(d_.size());
+    perm_.resize(n);
+    for (int i = 0; i < n; ++i) perm_[i] = P.size() > 0 ? P.indices()(i) : i;
+    z_.assign(L_.nonZeros(), 0.0);
+    diag_.resize(n);
+    const int* outer = L_.outerIndexPtr();
+    const int* rows = L_.innerIndexPtr();
+    const double* values = L_.valuePtr();
+    // Column j from the last: its entries need only those of the columns after it (the rows of
+    // a column are a clique of the filled pattern, so every Z_ik looked up is stored).
+    for (int j = n - 1; j >= 0; --j) {
+      const int begin = outer[j], end = outer[j] + columnCount(j);
+      for (int a = end - 1; a >= begin; --a) {
+        const int i = rows[a];
+        double sum = 0.0;
+        for (int b = begin; b < end; ++b) sum += values[b] * permuted(rows[b], i);
+        z_[a] = -sum;
+      }
+      double sum = 0.0;
+      for (int b = begin; b < end; ++b) sum += values[b] * z_[b];
+      diag_(j) = 1.0 / d_(j) - sum;
+    }
+  }
+
+  /// (N^-1)(i, j) for i, j coupled in N (or on the factor's pattern).
+  double operator()(int i, int j) const { return permuted(perm_[i], perm_[j]); }
+
+ private:
+  int columnCount(int j) const {
+    const int* nnz = L_.innerNonZeroPtr();
+    return nnz ? nnz[j] : L_.outerIndexPtr()[j + 1] - L_.outerIndexPtr()[j];
+  }
+  double permuted(int i, int j) const {
+    if (i == j) return diag_(i);
+    const int col = std::min(i, j), row = std::max(i, j);
+    const int* rows = L_.innerIndexPtr();
+    const int* begin = rows + L_.outerIndexPtr()[col];
+    const int* end = begin + columnCount(col);
+    const int* it = std::lower_bound(begin, end, row);
+    if (it == end || *it != row) return 0.0;  // not on the pattern: not asked for
+    return z_[it - rows];
+  }
+
+  const Eigen::SparseMatrix<double>& L_;
+  Eigen::VectorXd d_;
+  std::vector<int> perm_;
+  std::vector<double> z_;
+  Eigen::VectorXd diag_;
+};
+
 class Problem {
  public:
   Problem(const std::vector<SmoothingScan>& scans, const std::vector<SmoothingLandmark>& landmarks,
@@ -88,7 +149,8 @@ class Problem {
     // Only landmarks with an observation are unknowns (the others keep the filter's estimate).
     std::vector<int> column(landmarks.size(), -1);
     for (std::size_t i = 0; i < scans.size(); ++i) {
-      for (const SmoothingObservation& o : scans[i].observations) {
+      for (std::size_t j = 0; j < scans[i].observations.size(); ++j) {
+        const SmoothingObservation& o = scans[i].observations[j];
         const auto it = input_index.find(o.landmark);
         if (it == input_index.end()) {
           ++result->dropped_observations;
@@ -104,7 +166,7 @@ class Problem {
           error_ = "scan " + std::to_string(i) + ": an observation's covariance is not positive";
           return;
         }
-        observations_.push_back({static_cast<int>(i), col, o.z, W, o.kind});
+        observations_.push_back({static_cast<int>(i), static_cast<int>(j), col, o.z, W, o.kind});
       }
       Eigen::MatrixXd W;
       const bool link = scans[i].linked && i > 0;
@@ -178,7 +240,55 @@ class Problem {
     return cost;
   }
 
+  // The odometry and observation residuals at x with their leverage J N^-1 J^T, the blocks of
+  // N^-1 they need taken from `inverse` (N factorised at x).
+  template <class Inverse>
+  std::vector<SmoothingResidual> residuals(const Eigen::VectorXd& x, const Inverse& inverse) {
+    std::vector<SmoothingResidual> out;
+    out.reserve(links_.size() + observations_.size());
+    Eigen::Matrix3d Ja, Jb;
+    for (const PoseTerm& l : links_) {
+      SmoothingResidual r;
+      r.scan = l.scan;
+      const int oa = 3 * (l.scan - 1), ob = 3 * l.scan;
+      r.v = l.mean - relativePose(x.segment<3>(oa), x.segment<3>(ob), &Ja, &Jb);
+      r.v.z() = wrapAngle(r.v.z());
+      r.leverage = leverage<3, 3, 3>(inverse, oa, Ja, ob, Jb);
+      out.push_back(r);
+    }
+    for (const ObservationTerm& t : observations_) {
+      SmoothingResidual r;
+      r.scan = t.scan;
+      r.observation = t.index;
+      const int op = 3 * t.scan, om = landmarkOffset(t.landmark);
+      Matrix23d Hp;
+      Eigen::Matrix2d Hm;
+      r.v.head<2>() = RangeBearingModel::innovation(
+          t.z, model_.predict(x.segment<3>(op), x.segment<2>(om), t.kind, &Hp, &Hm), t.kind);
+      r.leverage.topLeftCorner<2, 2>() = leverage<2, 3, 2>(inverse, op, Hp, om, Hm);
+      out.push_back(r);
+    }
+    return out;
+  }
+
  private:
+  // J N^-1 J^T for a residual on the blocks at offsets p (size P) and q (size Q).
+  template <int D, int P, int Q, class Inverse>
+  static Eigen::Matrix<double, D, D> leverage(const Inverse& inverse, int p,
+                                              const Eigen::Matrix<double, D, P>& Jp, int q,
+                                              const Eigen::Matrix<double, D, Q>& Jq) {
+    Eigen::Matrix<double, P + Q, P + Q> Z;
+    const int offset[2] = {p, q}, size[2] = {P, Q};
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b)
+        for (int r = 0; r < size[a]; ++r)
+          for (int c = 0; c < size[b]; ++c)
+            Z(a * P + r, b * P + c) = inverse(offset[a] + r, offset[b] + c);
+    Eigen::Matrix<double, D, P + Q> J;
+    J << Jp, Jq;
+    return J * Z * J.transpose();
+  }
+
   // The normal equations' part of a residual v (weight W) on two blocks at offsets p < q, whose
   // prediction has the Jacobians Jp and Jq.
   template <class Jp_t, class Jq_t, class W_t, class V_t>
@@ -281,9 +391,12 @@ SmoothingResult smoothRun(const std::vector<SmoothingScan>& scans,
   for (std::size_t c = 0; c < cols.size(); ++c)
     if (params.landmark_covariances < 0 || cols[c] < params.landmark_covariances)
       wanted.push_back(static_cast<int>(c));
+  if (!wanted.empty() || params.residuals) {
+    if (!factorise()) return result;
+  }
+  if (params.residuals) result.residuals = problem.residuals(x, SelectedInverse(solver));
   if (!wanted.empty()) {
     // Marginals: those columns of A^-1 at the solution, a chunk of columns per solve.
-    if (!factorise()) return result;
     constexpr int kChunk = 64;
     for (std::size_t c0 = 0; c0 < wanted.size(); c0 += kChunk) {
       const int m = static_cast<int>(std::min<std::size_t>(kChunk, wanted.size() - c0));

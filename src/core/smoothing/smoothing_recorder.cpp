@@ -13,13 +13,15 @@ void SmoothingRecorder::add(const ScanReport& r, const SlamPipeline& pipeline) {
   s.linked = r.has_motion;
   s.motion = r.motion;
   s.motion_covariance = r.motion_covariance;
+  s.motion_translation = r.motion_covariance_translation;
+  s.motion_rotation = r.motion_covariance_rotation;
   const RangeBearingModel& model = pipeline.observationModel();
   for (std::size_t i = 0; i < r.observations.size() && i < r.association.decision.size(); ++i) {
     const Decision d = r.association.decision[i];
     if (d != Decision::kPaired && d != Decision::kNew) continue;
     const Observation& ob = r.observations[i];
     const LandmarkId id = r.association.landmark[i];
-    s.observations.push_back({id, ob.z, ob.R, ob.kind});
+    s.observations.push_back({id, ob.z, ob.R, ob.kind, ob.default_covariance});
     // The smoother's start for a landmark removed later.
     if (d == Decision::kNew) created_.emplace(id, model.inverse(s.pose, ob.z, ob.kind));
   }
@@ -40,8 +42,7 @@ void SmoothingRecorder::add(const ScanReport& r, const SlamPipeline& pipeline) {
   }
 }
 
-SmoothingResult SmoothingRecorder::smooth(const SlamPipeline& pipeline,
-                                          SmootherParams params) const {
+std::vector<SmoothingLandmark> SmoothingRecorder::landmarks(const SlamPipeline& pipeline) const {
   // The pairings of a landmark removed later (missed, or made again under a new id) were the
   // filter's evidence too: every landmark of the run is an unknown.
   std::vector<SmoothingLandmark> start;
@@ -56,7 +57,13 @@ SmoothingResult SmoothingRecorder::smooth(const SlamPipeline& pipeline,
   // In id order, so that the result does not depend on the hash map's order.
   std::sort(start.begin() + final_landmarks, start.end(),
             [](const SmoothingLandmark& a, const SmoothingLandmark& b) { return a.id < b.id; });
-  const int wanted = static_cast<int>(final_landmarks);
+  return start;
+}
+
+SmoothingResult SmoothingRecorder::smooth(const SlamPipeline& pipeline,
+                                          SmootherParams params) const {
+  const std::vector<SmoothingLandmark> start = landmarks(pipeline);
+  const int wanted = static_cast<int>(pipeline.mapLandmarks().size());
   if (params.landmark_covariances < 0 || params.landmark_covariances > wanted)
     params.landmark_covariances = wanted;
   return smoothRun(scans_, start, pipeline.observationModel(), params);

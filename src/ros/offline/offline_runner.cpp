@@ -103,6 +103,8 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   // Parameters: one builder for every entry point (app/pipeline_builder.h), the options over
   // the file's `associator` and `relocaliser`.
   YamlConfiguration configuration(o.params_path);
+  for (const OfflineOptions::Override& v : o.overrides)
+    configuration.setOverride(v.section, v.name, v.value);
   if (!o.associator.empty()) configuration.setOverride("", "associator", o.associator);
   if (!o.relocaliser.empty()) configuration.setOverride("", "relocaliser", o.relocaliser);
   PipelineParts parts = buildPipeline(configuration, PluginlibFactory());
@@ -259,6 +261,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   const double wall_time_s = secondsSince(t_loop);
   const double loop_cpu_s = threadCpuSeconds() - cpu_loop;
   progress.finish();
+  if (o.on_finish) o.on_finish(pipeline);
 
   LoopStats stats;
   stats.associator = short_name;

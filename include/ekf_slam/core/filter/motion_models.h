@@ -20,6 +20,12 @@ struct MotionStep {
   Eigen::Vector3d pose;
   Eigen::Matrix3d F;
   Eigen::Matrix3d Q;
+  /// The shares of Q from the model's translation (speed) noise and from its rotation (yaw-rate,
+  /// steering) noise; Q less both is the rest (additive noise, the correction states' random
+  /// walk). Each is linear in its term's variance, so noise calibration can scale the terms
+  /// apart (core/smoothing/noise_calibration.h). Not used by the filter.
+  Eigen::Matrix3d Q_translation = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d Q_rotation = Eigen::Matrix3d::Zero();
   int corrections = 0;  ///< number of correction states (0: the plain EKF; the rest is unused)
   Eigen::Matrix<double, 3, 2> Fc = Eigen::Matrix<double, 3, 2>::Zero();   ///< d pose / d c
   Eigen::Matrix<double, 3, 2> Qvc = Eigen::Matrix<double, 3, 2>::Zero();  ///< cov(pose, c) noise
@@ -98,6 +104,9 @@ class TwistModel {
   /// Covariance of the twist noise of one message with twist u (per_second: of its density;
   /// step() divides by dt): diagonal, or with steering_wheelbase the steering model's.
   Eigen::Matrix2d twistCovariance(const Input& u) const;
+  /// twistCovariance() split into the share of the speed terms (sigma_v, sigma_v_per_v) and of
+  /// the yaw-rate terms (sigma_w, sigma_w_per_v); they add up to it.
+  void twistCovarianceTerms(const Input& u, Eigen::Matrix2d* speed, Eigen::Matrix2d* turn) const;
 
  private:
   TwistParams p_;

@@ -17,6 +17,9 @@ struct Observation {
   MeasurementKind kind = MeasurementKind::kRangeBearing;
   /// Optional descriptor, e.g. the trunk diameter [m]; NaN when unknown.
   double descriptor = std::numeric_limits<double>::quiet_NaN();
+  /// R is the pipeline's default (sigma_range, sigma_bearing), not the sensor's or extractor's
+  /// own: noise calibration knows which parameters it would scale.
+  bool default_covariance = false;
 };
 
 }  // namespace ekf_slam

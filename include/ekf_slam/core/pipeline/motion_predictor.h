@@ -76,6 +76,8 @@ class MotionPredictor {
   void composePoseDelta(const Eigen::Vector3d& delta);
   /// pending_ <- step o pending_ (a non-finite step is counted as rejected odometry).
   void compose(const MotionStep& step);
+  /// The pending step's Q_translation and Q_rotation with `step` composed on (before F is).
+  void composeTerms(const MotionStep& step);
 
   const PipelineConfig& config_;
   const EkfSlam& filter_;
@@ -96,6 +98,8 @@ class MotionPredictor {
   // The odometry since the last numbered scan; valid once a scan was numbered since reset().
   Eigen::Vector3d motion_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d motion_covariance_ = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d motion_translation_ = Eigen::Matrix3d::Zero();  // its noise terms' shares
+  Eigen::Matrix3d motion_rotation_ = Eigen::Matrix3d::Zero();
   bool motion_valid_ = false;
 };
 

@@ -74,6 +74,10 @@ struct ScanReport {
   bool has_motion = false;
   Eigen::Vector3d motion = Eigen::Vector3d::Zero();
   Eigen::Matrix3d motion_covariance = Eigen::Matrix3d::Zero();
+  /// Its shares from the odometry model's translation and rotation noise terms (MotionStep::
+  /// Q_translation, Q_rotation), for noise calibration; the rest is additive noise.
+  Eigen::Matrix3d motion_covariance_translation = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d motion_covariance_rotation = Eigen::Matrix3d::Zero();
   double nis = 0.0;  ///< of the batch update
   int nis_dof = 0;
   /// The earlier sightings of this scan's new landmarks, applied in a second batch update, and

@@ -26,6 +26,8 @@ struct SmoothingObservation {
   Eigen::Vector2d z = Eigen::Vector2d::Zero();
   Eigen::Matrix2d R = Eigen::Matrix2d::Identity();
   MeasurementKind kind = MeasurementKind::kRangeBearing;
+  /// R is the pipeline's default (Observation::default_covariance): for noise calibration.
+  bool default_covariance = false;
 };
 
 /// One scan: its pose as the filter estimated it (the starting point), the odometry since the
@@ -41,6 +43,10 @@ struct SmoothingScan {
   bool linked = false;
   Eigen::Vector3d motion = Eigen::Vector3d::Zero();
   Eigen::Matrix3d motion_covariance = Eigen::Matrix3d::Zero();
+  /// Its shares from the odometry's translation and rotation noise terms
+  /// (ScanReport::motion_covariance_translation, _rotation): for noise calibration only.
+  Eigen::Matrix3d motion_translation = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d motion_rotation = Eigen::Matrix3d::Zero();
   std::vector<SmoothingObservation> observations;
 };
 
@@ -59,6 +65,23 @@ struct SmootherParams {
   /// The marginal 2x2 covariance (for a saved map) of the first this many input landmarks, the
   /// rest NaN; negative: of all. One solve per landmark coordinate with the final factorisation.
   int landmark_covariances = -1;
+  /// SmoothingResult::residuals: every odometry and observation residual at the solution with
+  /// its leverage J N^-1 J^T (the share of its covariance the fit absorbs), from the entries of
+  /// N^-1 on the factor's pattern (Takahashi's equations). For noise calibration
+  /// (noise_calibration.h).
+  bool residuals = false;
+};
+
+/// One residual at the solution (SmootherParams::residuals).
+struct SmoothingResidual {
+  int scan = 0;
+  /// Index in the scan's `observations`; -1: the odometry link from the previous scan.
+  int observation = -1;
+  /// z - h(x): the odometry's 3 rows, or an observation's first 2 (the rest 0).
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  /// J N^-1 J^T at the solution (same layout as v): the residual's covariance under the model is
+  /// its noise covariance less this.
+  Eigen::Matrix3d leverage = Eigen::Matrix3d::Zero();
 };
 
 struct SmoothingResult {
@@ -83,6 +106,7 @@ struct SmoothingResult {
   std::size_t observations = 0;          ///< observation residuals used
   std::size_t dropped_observations = 0;  ///< paired with landmarks not in the final map
   double seconds = 0.0;
+  std::vector<SmoothingResidual> residuals;  ///< with SmootherParams::residuals
 };
 
 /// Smooths the run. Observations of landmarks not in `landmarks` (removed during the run) are

@@ -30,6 +30,8 @@ class SmoothingRecorder {
   /// landmarks), then the removed ones by id; marginal covariances for the final map's only
   /// (unless params asks for fewer).
   SmoothingResult smooth(const SlamPipeline& pipeline, SmootherParams params = {}) const;
+  /// smooth()'s unknown landmarks with their starting positions, in its order.
+  std::vector<SmoothingLandmark> landmarks(const SlamPipeline& pipeline) const;
 
   /// The prior variance of a scan the smoother takes no odometry into: keeps the system solvable,
   /// far too weak to pull the pose [m^2, rad^2].

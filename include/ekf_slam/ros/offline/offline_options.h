@@ -19,6 +19,12 @@ struct OfflineOptions {
   /// YAML with the pipeline parameters at the top level and each associator's under its short
   /// name (config/victoria_park.yaml); empty: every default.
   std::string params_path;
+  /// Values that replace the file's (section "" = the top level), as --associator does: for
+  /// tools that rerun a bag with changed parameters (calibrate_noise).
+  struct Override {
+    std::string section, name, value;
+  };
+  std::vector<Override> overrides;
   /// Plugin name ("DJNN" or "ekf_slam/DJNN"); empty: the YAML's `associator`, else the default.
   std::string associator;
   /// Relocaliser plugin ("FGCBB" or "ekf_slam/FGCBB"); empty: the YAML's `relocaliser`, else
@@ -59,6 +65,8 @@ struct OfflineOptions {
   /// Called after every processed scan (not from the command line: for tools built on the
   /// runner, e.g. relocalisation_experiment).
   std::function<void(const ScanReport&, const SlamPipeline&)> on_scan;
+  /// Called once after the last scan, before the outputs are written (the pipeline as it ends).
+  std::function<void(const SlamPipeline&)> on_finish;
   bool plot = true;      ///< run scripts/plot_map.py
   bool progress = true;  ///< progress bar, only when stderr is a terminal
 };

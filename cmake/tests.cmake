@@ -90,6 +90,7 @@ foreach(t test_simulate test_simulate_beacons test_offline_recovery test_offline
   ekf_slam_test(${t} LIBS ekf_slam_tools nlohmann_json::nlohmann_json)
 endforeach()
 ekf_slam_test(test_evaluate LIBS ekf_slam_tools PROGRAMS evaluate)
+ekf_slam_test(test_default_relocaliser LIBS ekf_slam_tools)
 ekf_slam_test(test_entry_points LIBS ekf_slam_tools nlohmann_json::nlohmann_json
               PROGRAMS relocalisation_experiment detect_trees replay_association)
 ekf_slam_test(test_simulation_launch ROSTEST simulation LIBS ekf_slam_tools

@@ -53,12 +53,20 @@ TEST(OfflineRecovery, KidnappedWorldIsRecoveredAndTheMapWritten) {
   EXPECT_EQ(header, "ekf_slam_map 1");
 }
 
-TEST(OfflineRecovery, WithoutRelocaliserTheKidnapIsNotRecovered) {
+// Recovery is on by default (issue 34); --relocaliser "" turns it off.
+TEST(OfflineRecovery, TheKidnapIsRecoveredByDefaultNotWithRecoveryOff) {
   const SimulatedBag bag("rrw_kidnap_6");
   std::ostringstream log;
-  const nlohmann::json j = metrics(runOffline(bag.options("run"), log));
+  OfflineOptions off = bag.options("off");
+  off.relocaliser = "";
+  const nlohmann::json j = metrics(runOffline(off, log));
+  EXPECT_EQ(j["relocaliser"], "");
   EXPECT_EQ(j["counters"]["relocalisations"].get<int>(), 0);
   EXPECT_GT(j["truth"]["pose_rmse_m"].get<double>(), 5.0);
+  const nlohmann::json on = metrics(runOffline(bag.options("on"), log));
+  EXPECT_EQ(on["relocaliser"], "FGCBB");
+  EXPECT_GE(on["counters"]["relocalisations"].get<int>(), 1);
+  EXPECT_LT(on["truth"]["pose_rmse_m"].get<double>(), j["truth"]["pose_rmse_m"].get<double>());
 }
 
 TEST(OfflineRecovery, InjectedKidnapIsRecovered) {
@@ -121,7 +129,7 @@ TEST(OfflineRecovery, SavedMapWithUnknownPoseIsFoundAgain) {
   EXPECT_LT(finalDistance(j, built), 1.0);
   // Unknown pose without a relocaliser, or without a map: clear errors.
   OfflineOptions bad = second;
-  bad.relocaliser.clear();
+  bad.relocaliser = "";  // off
   EXPECT_THROW(runOffline(bad, log), std::runtime_error);
   bad = second;
   bad.load_map.clear();
@@ -142,6 +150,14 @@ TEST(OfflineRecovery, ParsesTheRecoveryArguments) {
       << error;
   EXPECT_EQ(o.relocaliser, "FGCBB");
   EXPECT_EQ(o.load_map, "m.txt");
+  // Unset: the YAML's, else the default; "" turns recovery off.
+  OfflineOptions plain, off;
+  ASSERT_TRUE(parseOfflineArguments({"--bag", "b", "--out", "d"}, &plain, &help, &error));
+  EXPECT_FALSE(plain.relocaliser.has_value());
+  ASSERT_TRUE(parseOfflineArguments({"--bag", "b", "--out", "d", "--relocaliser", ""}, &off, &help,
+                                    &error));
+  ASSERT_TRUE(off.relocaliser.has_value());
+  EXPECT_EQ(*off.relocaliser, "");
   EXPECT_TRUE(o.unknown_pose);
   ASSERT_EQ(o.kidnaps.size(), 2u);
   EXPECT_EQ(o.kidnaps[0].scan, 2000u);

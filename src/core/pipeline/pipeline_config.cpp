@@ -108,6 +108,10 @@ void PipelineConfig::validate() const {
   nonNegative(lost_view_range, "lost_view_range");
   requireParameter(lost_field_of_view > 0.0 && lost_field_of_view <= 2.0 * M_PI,
                    "lost_field_of_view", "must lie in (0, 2 pi]", lost_field_of_view);
+  if (!lost_view_polygon.empty()) {
+    if (const std::string problem = polygonProblem(lost_view_polygon); !problem.empty())
+      throw ParameterError("parameter lost_view_polygon: " + problem);
+  }
   count(lost_nis_scans, "lost_nis_scans");
   count(lost_rejected_scans, "lost_rejected_scans");
   count(lost_share_window, "lost_share_window");
@@ -232,6 +236,15 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_recent_informative = r.flag("lost_recent_informative", c.lost_recent_informative);
   c.lost_view_range = r.nonNegative("lost_view_range", c.lost_view_range);
   c.lost_field_of_view = r.inRange("lost_field_of_view", c.lost_field_of_view, 1e-6, 2.0 * M_PI);
+  if (const std::string polygon = r.text("lost_view_polygon", ""); !polygon.empty()) {
+    try {
+      c.lost_view_polygon = parsePolygon(polygon);
+    } catch (const std::invalid_argument& e) {
+      r.fail("lost_view_polygon", e.what());
+    }
+    if (const std::string problem = polygonProblem(c.lost_view_polygon); !problem.empty())
+      r.fail("lost_view_polygon", problem);
+  }
   c.lost_nis_scans = r.integer("lost_nis_scans", c.lost_nis_scans, 0, 100000);
   c.lost_rejected_scans = r.integer("lost_rejected_scans", c.lost_rejected_scans, 0, 100000);
   c.lost_share_window = r.integer("lost_share_window", c.lost_share_window, 0, 100000);

@@ -242,11 +242,10 @@ bool SlamPipeline::kidnapRefused(ScanReport* report) {
     }
     return true;
   }
-  if (Recovery::usable(report->relocalisation, report->observations.size())) {
-    monitor_.refusalAnswered();  // the relocaliser agrees with the estimate: applied as associated
-  } else {
-    LostMonitor::suppressNew(&report->association, &counters_);  // no answer: the doubt stays
-  }
+  // The relocaliser agrees with the estimate: the streak ends. No answer: the streak goes on.
+  // Either way the scan is applied as associated (a probe that finds no kidnap changes nothing).
+  if (Recovery::usable(report->relocalisation, report->observations.size()))
+    monitor_.refusalAnswered();
   return false;
 }
 
@@ -255,9 +254,15 @@ void SlamPipeline::checkLost(ScanReport* report) {
     case LostMonitor::Verdict::kLost:
       goLost(report);
       break;
-    case LostMonitor::Verdict::kProbe:
+    case LostMonitor::Verdict::kProbe: {
+      // The rule that asked (rule 2), if any: named with the relocaliser's answer when lost.
+      const std::string rule = std::move(report->lost_reason);
+      report->lost_reason.clear();
       probe(report);
+      if (report->became_lost && !rule.empty())
+        report->lost_reason = rule + "; " + report->lost_reason;
       break;
+    }
     case LostMonitor::Verdict::kTracking:
       break;
   }
@@ -265,8 +270,9 @@ void SlamPipeline::checkLost(ScanReport* report) {
 
 void SlamPipeline::probe(ScanReport* report) {
   // The established map only: recent landmarks would explain the scan at the filter's (perhaps
-  // wrong) pose.
-  std::vector<MapLandmark> map = mapLandmarks();
+  // wrong) pose. Read without a global update (filter cekf: the landmarks outside the active area
+  // as of the last one), so that a probe that finds nothing leaves the filter as it was.
+  std::vector<MapLandmark> map = ekf_slam::mapLandmarks(activeEkf(), book_);
   map.erase(std::remove_if(map.begin(), map.end(),
                            [this](const MapLandmark& l) { return book_.recent(l.id, scans_); }),
             map.end());

@@ -95,3 +95,5 @@ ekf_slam_test(test_entry_points LIBS ekf_slam_tools nlohmann_json::nlohmann_json
               PROGRAMS relocalisation_experiment detect_trees replay_association)
 ekf_slam_test(test_simulation_launch ROSTEST simulation LIBS ekf_slam_tools
               PROGRAMS ekf_slam_node_main)
+ekf_slam_test(test_kidnap_launch ROSTEST kidnap_launch LIBS ekf_slam_tools
+              PROGRAMS ekf_slam_node_main)

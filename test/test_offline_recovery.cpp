@@ -109,6 +109,21 @@ TEST(OfflineRecovery, InjectedKidnapIsRecovered) {
   }
   EXPECT_GE(compared, 2);
   EXPECT_EQ(j["truth"]["duplicates"].get<int>(), 0);
+  // metrics.json lists the event: where it went lost, why, and the fix's correction, which
+  // undoes the injected jump of 36 m and 1.5 rad (issue 34, item 4).
+  ASSERT_EQ(j["lost_event_list"].size(), 1u) << j.dump(1);
+  const nlohmann::json& e = j["lost_event_list"][0];
+  EXPECT_EQ(e["scan"].get<int>(), lost_scan);
+  EXPECT_FALSE(e["reason"].get<std::string>().empty());
+  EXPECT_EQ(e["end"], "relocalised");
+  EXPECT_EQ(e["end_scan"].get<int>(), scan);
+  EXPECT_EQ(e["scans_lost"].get<int>(), scan - lost_scan);
+  EXPECT_NEAR(e["correction_m"].get<double>(), std::hypot(30.0, 20.0), 3.0);
+  EXPECT_NEAR(e["correction_rad"].get<double>(), -1.5, 0.1);
+  EXPECT_GE(e["pairings"].get<int>(), 5);
+  EXPECT_NE(log.str().find(" rad, "), std::string::npos) << log.str();
+  // A run that never gets lost lists nothing (its metrics.json is the run's without recovery).
+  EXPECT_FALSE(plain.contains("lost_event_list"));
 }
 
 TEST(OfflineRecovery, SavedMapWithUnknownPoseIsFoundAgain) {

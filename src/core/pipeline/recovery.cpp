@@ -51,6 +51,7 @@ void Recovery::enterLost(const std::vector<MapLandmark>& map, bool pose_unknown)
   lost_ = true;
   pose_unknown_ = pose_unknown;
   lost_scans_ = 0;
+  scans_lost_ = 0;
   held_.clear();
   window_.clear();  // scans from before are at a pose now in doubt
   lost_path_.clear();
@@ -149,6 +150,7 @@ RelocalisationResult Recovery::relocaliseWindow(ScanReport* report) {
 std::optional<RelocalisationResult> Recovery::relocalise(ScanReport* report, bool* resumed) {
   *resumed = false;
   report->lost = true;
+  ++scans_lost_;
   report->association.resize(report->observations.size());
   const RelocalisationResult r = callRelocaliser(report);
   if (usable(r, report->observations.size()) && confirm(r, report)) return r;
@@ -245,6 +247,7 @@ void Recovery::fixed(const Eigen::Vector3d& dead_reckoned, ScanReport* report) {
     report->lost_path.push_back(p);
   }
   counters_.lost_path_poses += lost_path_.size();
+  report->lost_scans = scans_lost_;
   lost_path_.clear();
   ++counters_.relocalisations;
   report->relocalised = true;

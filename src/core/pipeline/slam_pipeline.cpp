@@ -5,6 +5,7 @@
 #include <chrono>
 #include <stdexcept>
 #include <utility>
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/common/stopwatch.h"
 
 #include "ekf_slam/core/feature_extraction/scan_geometry.h"
@@ -215,7 +216,10 @@ void SlamPipeline::relocaliseLost(ScanReport* report) {
     applyFix(*fix, report);
     return;
   }
-  if (resumed) monitor_.resume();
+  if (resumed) {
+    report->lost_timeout = true;
+    monitor_.resume();
+  }
   recovery_.rememberPose(*report);
 }
 
@@ -320,11 +324,16 @@ void SlamPipeline::applyFix(const RelocalisationResult& fix, ScanReport* report)
   const Eigen::Vector3d dead_reckoned = pose();
   ekf.replacePose(fix.pose, kRelocalisedPriorInflation * fix.covariance);
   // A window's older pairings join the update.
-  mapper_.apply(*associator_, recovery_.takeWindowPairings(), report);
+  const std::vector<Pairing> window = recovery_.takeWindowPairings();
+  mapper_.apply(*associator_, window, report);
   if (!report->update_ok) {
     filter_.flush();
     ekf.replacePose(fix.pose, fix.covariance);  // uncorrelated, still valid
   }
+  report->fix_pairings = static_cast<int>(window.size());
+  for (const Decision d : a.decision) report->fix_pairings += d == Decision::kPaired;
+  report->fix_correction = pose() - dead_reckoned;
+  report->fix_correction.z() = wrapAngle(report->fix_correction.z());
   recovery_.fixed(dead_reckoned, report);
   monitor_.resume();
 }

@@ -117,7 +117,8 @@ class Recovery {
   std::shared_ptr<Relocaliser> relocaliser_;
   bool lost_ = false;
   bool pose_unknown_ = false;
-  int lost_scans_ = 0;  // relocalisation attempts since lost
+  int lost_scans_ = 0;            // relocalisation attempts since lost
+  std::uint32_t scans_lost_ = 0;  // scans processed lost since going lost (for the report)
   // Oldest first, at most relocalisation_held_fixes.
   std::vector<HeldFix> held_;
   // relocalisation_window_scans > 1: the scans since going lost; the carried observations the

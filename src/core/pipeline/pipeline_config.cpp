@@ -127,6 +127,14 @@ void PipelineConfig::validate() const {
                    "must be at least 1", relocalisation_held_fixes);
   requireParameter(relocalisation_window_scans >= 1, "relocalisation_window_scans",
                    "must be at least 1", relocalisation_window_scans);
+  requireParameter(lost_map_pair_probability > 0.0 && lost_map_pair_probability < 1.0,
+                   "lost_map_pair_probability", "must lie in (0, 1)", lost_map_pair_probability);
+  requireParameter(
+      lost_map_new_probability >= lost_map_pair_probability && lost_map_new_probability < 1.0,
+      "lost_map_new_probability", "must lie in [lost_map_pair_probability, 1)",
+      lost_map_new_probability);
+  requireParameter(lost_map_min_sightings >= 1, "lost_map_min_sightings", "must be at least 1",
+                   lost_map_min_sightings);
   requireParameter(relocalisation_confirm_distance > 0.0, "relocalisation_confirm_distance",
                    "must be positive", relocalisation_confirm_distance);
   requireParameter(relocalisation_confirm_angle > 0.0 && relocalisation_confirm_angle <= M_PI,
@@ -269,6 +277,12 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
       r.integer("relocalisation_held_fixes", c.relocalisation_held_fixes, 1, 100);
   c.relocalisation_window_scans =
       r.integer("relocalisation_window_scans", c.relocalisation_window_scans, 1, 100);
+  c.lost_map_scans = r.flag("lost_map_scans", c.lost_map_scans);
+  c.lost_map_pair_probability =
+      r.probability("lost_map_pair_probability", c.lost_map_pair_probability);
+  c.lost_map_new_probability =
+      r.probability("lost_map_new_probability", c.lost_map_new_probability);
+  c.lost_map_min_sightings = r.integer("lost_map_min_sightings", c.lost_map_min_sightings, 1, 1000);
   c.relocalisation_confirm_distance =
       r.positive("relocalisation_confirm_distance", c.relocalisation_confirm_distance);
   c.relocalisation_confirm_angle =

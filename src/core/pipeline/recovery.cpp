@@ -45,6 +45,7 @@ void Recovery::setRelocaliser(std::shared_ptr<Relocaliser> relocaliser) {
 void Recovery::reset() {
   lost_ = false;
   tracked_.clear();
+  seen_while_lost_.clear();
 }
 
 void Recovery::enterLost(const std::vector<MapLandmark>& map, bool pose_unknown) {
@@ -55,12 +56,14 @@ void Recovery::enterLost(const std::vector<MapLandmark>& map, bool pose_unknown)
   held_.clear();
   window_.clear();  // scans from before are at a pose now in doubt
   lost_path_.clear();
+  seen_while_lost_.clear();
   if (pose_unknown) tracked_.clear();  // a new map: the scans before say nothing about the pose
   relocaliser_->setMap(map);           // frozen until found
 }
 
 void Recovery::carry(const MotionStep& step) {
   if (lost_ && !window_.empty()) window_.addMotion(step.F, step.Q);
+  if (lost_) seen_while_lost_.carry(step);
   if (!tracked_.empty()) {
     TrackedPose& t = tracked_.back();
     t.Q = step.F * t.Q * step.F.transpose() + step.Q;
@@ -164,6 +167,7 @@ std::optional<RelocalisationResult> Recovery::relocalise(ScanReport* report, boo
     *resumed = true;
     held_.clear();
     lost_path_.clear();  // tracking resumes from the dead-reckoned path: nothing to correct
+    seen_while_lost_.clear();
     tracked_.clear();
   }
   return std::nullopt;
@@ -259,6 +263,9 @@ void Recovery::rememberPose(const ScanReport& report) {
   if (lost_) {
     if (lost_path_.size() >= kMaxLostPath) lost_path_.pop_front();
     lost_path_.push_back({report.scan, report.stamp, motion_.pose()});
+    // Only what was not applied: the scan that made the rule fire was tracked.
+    if (report.lost && config_.lost_map_scans)
+      seen_while_lost_.add(report.scan, motion_.pose(), report.observations);
     return;
   }
   tracked_.push_back({report.scan, report.stamp, book_.informativeScans(), motion_.pose(),

@@ -3,6 +3,7 @@
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 #include <utility>
 #include "ekf_slam/core/common/angles.h"
@@ -334,8 +335,34 @@ void SlamPipeline::applyFix(const RelocalisationResult& fix, ScanReport* report)
   for (const Decision d : a.decision) report->fix_pairings += d == Decision::kPaired;
   report->fix_correction = pose() - dead_reckoned;
   report->fix_correction.z() = wrapAngle(report->fix_correction.z());
+  const LostScans lost = recovery_.takeLostScans();
   recovery_.fixed(dead_reckoned, report);
+  if (report->update_ok) mapSeenWhileLost(lost, dead_reckoned, report);
   monitor_.resume();
+}
+
+void SlamPipeline::mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d& dead_reckoned,
+                                    ScanReport* report) {
+  if (lost.empty()) return;
+  // The whole state: the lost scans may lie anywhere in the map (filter cekf starts again).
+  filter_.flush();
+  EkfSlam& ekf = filter_.ekf();
+  LostMappingParams params;
+  params.pair_probability = config_.lost_map_pair_probability;
+  params.new_probability = config_.lost_map_new_probability;
+  params.min_sightings = config_.lost_map_min_sightings;
+  const LostScanMapping m = mapLostScans(ekf, model_, lost, dead_reckoned, params);
+  filter_.restart();
+  for (const LandmarkId id : m.paired) book_.paired(id, std::nan(""));
+  for (std::size_t j = 0; j < m.created.size(); ++j) {
+    book_.created(m.created[j], m.descriptors[j], report->scan);
+    for (std::uint32_t k = 1; k < m.sightings[j]; ++k) book_.paired(m.created[j], std::nan(""));
+    // The associator takes them as landmarks seen this often (DJNN: established).
+    associator_->landmarkLoaded(m.created[j], m.sightings[j]);
+  }
+  index_.sync(ekf);
+  report->lost_map_landmarks = static_cast<int>(m.created.size());
+  report->lost_map_pairings = static_cast<int>(m.paired.size());
 }
 
 // --- state ---------------------------------------------------------------------------------------

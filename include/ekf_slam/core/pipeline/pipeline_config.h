@@ -141,6 +141,15 @@ struct PipelineConfig {
   /// covariance (docs/relocalisation.md, "A window of scans"); a fix confirms a held one only if
   /// their windows share no scan. 1: the current scan alone.
   int relocalisation_window_scans = 1;
+  /// At a fix, the scans processed while lost are carried back from the fixed pose by their
+  /// odometry, associated by a gate of their own (pair within chi2(2, lost_map_pair_probability)
+  /// of exactly one landmark; new outside chi2(2, lost_map_new_probability) of all) and update
+  /// the map; a new landmark stays when seen in lost_map_min_sightings of them
+  /// (docs/relocalisation.md, "Nothing seen while lost is thrown away"). false: they are dropped.
+  bool lost_map_scans = true;
+  double lost_map_pair_probability = 0.99;
+  double lost_map_new_probability = 0.9999;
+  int lost_map_min_sightings = 3;
   double lost_nis_probability = 0.999;
 
   /// The filter: "ekf" (every step on the whole state) or "cekf", the compressed EKF

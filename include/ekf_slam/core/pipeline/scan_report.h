@@ -95,6 +95,10 @@ struct ScanReport {
   Eigen::Vector3d fix_correction = Eigen::Vector3d::Zero();
   int fix_pairings = 0;
   std::uint32_t lost_scans = 0;
+  /// At a relocalisation with lost_map_scans: landmarks mapped from what the lost scans saw, and
+  /// their pairings with landmarks mapped before.
+  int lost_map_landmarks = 0;
+  int lost_map_pairings = 0;
   /// lost_max_scans reached at this scan: tracking resumed from the dead-reckoned estimate.
   bool lost_timeout = false;
   RelocalisationResult relocalisation;  ///< of the attempt

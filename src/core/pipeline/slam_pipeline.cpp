@@ -343,7 +343,8 @@ void SlamPipeline::applyFix(const RelocalisationResult& fix, ScanReport* report)
 
 void SlamPipeline::mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d& dead_reckoned,
                                     ScanReport* report) {
-  if (lost.empty()) return;
+  // Localization mode: the map stays as loaded.
+  if (lost.empty() || mapFrozen()) return;
   // The whole state: the lost scans may lie anywhere in the map (filter cekf starts again).
   filter_.flush();
   EkfSlam& ekf = filter_.ekf();

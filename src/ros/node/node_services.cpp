@@ -42,9 +42,10 @@ void EkfSlamNode::reportRecovery(const ScanReport& report) {
     ROS_INFO(
         "ekf_slam: relocalised at scan %u after %u scans lost (since scan %u): correction %.2f m, "
         "%.3f rad, %d pairings used (%d in the relocaliser's hypothesis); pose (%.2f, %.2f, "
-        "%.3f rad)",
+        "%.3f rad); from what the lost scans saw: %d landmarks mapped, %d pairings",
         report.scan, report.lost_scans, lost_since_scan_, d.head<2>().norm(), d.z(),
-        report.fix_pairings, report.relocalisation.hypothesis_size, p.x(), p.y(), p.z());
+        report.fix_pairings, report.relocalisation.hypothesis_size, p.x(), p.y(), p.z(),
+        report.lost_map_landmarks, report.lost_map_pairings);
   }
   if (report.lost_timeout) {
     ROS_WARN("ekf_slam: no relocalisation at scan %u (lost since scan %u): %s", report.scan,

@@ -74,7 +74,8 @@ void RunRecord::add(const ScanReport& r, const SlamPipeline& pipeline,
       log_ << "relocalised at scan " << r.scan << ": pose " << x.pose.transpose() << ", "
            << x.hypothesis_size << " pairings; correction " << r.fix_correction.head<2>().norm()
            << " m, " << r.fix_correction.z() << " rad, " << r.fix_pairings
-           << " pairings in the update\n";
+           << " pairings in the update; from the lost scans " << r.lost_map_landmarks
+           << " landmarks mapped, " << r.lost_map_pairings << " pairings\n";
       relocalisations.push_back({r.scan, r.stamp, x.pose, x.hypothesis_size, x.joint_mahalanobis,
                                  x.nodes, 1e6 * r.relocalisation_s});
     }

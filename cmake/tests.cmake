@@ -36,7 +36,7 @@ foreach(t test_chi2 test_parameters test_coverage_grid test_sensor_model
           test_nnjcbb test_hungarian test_shape_context test_reweighted_random_walks
           test_rrwsc_matcher test_rrwsc test_djnn test_djnn_detection test_djnn_admission
           test_djnn_tentative_pose test_djnn_joint test_djnn_remembered test_geometric_constraints test_fgcbb test_rrwsc_relocaliser
-          test_batch_smoother test_pose_clones test_track_split)
+          test_batch_smoother test_pose_clones test_track_split test_lost_scans)
   ekf_slam_test(${t} LIBS ekf_slam_core)
 endforeach()
 ekf_slam_test(test_tree_extractor LIBS ekf_slam_core ekf_slam_victoria_park)
@@ -91,7 +91,10 @@ foreach(t test_simulate test_simulate_beacons test_offline_recovery test_offline
   ekf_slam_test(${t} LIBS ekf_slam_tools nlohmann_json::nlohmann_json)
 endforeach()
 ekf_slam_test(test_evaluate LIBS ekf_slam_tools PROGRAMS evaluate)
+ekf_slam_test(test_default_relocaliser LIBS ekf_slam_tools)
 ekf_slam_test(test_entry_points LIBS ekf_slam_tools nlohmann_json::nlohmann_json
               PROGRAMS relocalisation_experiment detect_trees replay_association)
 ekf_slam_test(test_simulation_launch ROSTEST simulation LIBS ekf_slam_tools
+              PROGRAMS ekf_slam_node_main)
+ekf_slam_test(test_kidnap_launch ROSTEST kidnap_launch LIBS ekf_slam_tools
               PROGRAMS ekf_slam_node_main)

@@ -51,6 +51,25 @@ TEST(EvaluateArguments, ParsesEverything) {
   EXPECT_FALSE(o.progress);
 }
 
+// Recovery is on unless --relocaliser "" (issue 34); the relocaliser's section gets the world's
+// values whether it is named or the default.
+TEST(EvaluateArguments, RelocaliserDefaultAndOff) {
+  EvaluateOptions o;
+  std::string error;
+  ASSERT_TRUE(parse({"--world", "tiny", "--out", "/tmp/x"}, &o, &error)) << error;
+  EXPECT_FALSE(o.relocaliser.has_value());
+  const sim::World w = sim::makeWorld("rrw_kidnap_1");
+  const PipelineParts on =
+      buildPipeline(evaluationConfiguration(o, w, "ekf_slam/DJNN"), PluginlibFactory());
+  EXPECT_EQ(on.relocaliser_name, "ekf_slam/FGCBB");
+  EXPECT_EQ(relocaliserName(evaluationConfiguration(o, w, "ekf_slam/RRWSC")), "ekf_slam/RRWSC");
+  ASSERT_TRUE(parse({"--world", "tiny", "--out", "/tmp/x", "--relocaliser", ""}, &o, &error));
+  ASSERT_TRUE(o.relocaliser.has_value());
+  EXPECT_EQ(
+      buildPipeline(evaluationConfiguration(o, w, "ekf_slam/DJNN"), PluginlibFactory()).relocaliser,
+      nullptr);
+}
+
 TEST(EvaluateArguments, RejectsBadOnes) {
   EvaluateOptions o;
   std::string error;

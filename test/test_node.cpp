@@ -488,8 +488,9 @@ TEST_F(BadInput, NodeKeepsRunningAndStaysFinite) {
   EXPECT_TRUE(ros::service::call("/ekf_slam/reset", reset));
 }
 
-// ~relocalise needs a relocaliser: without one it says so; with one (a second node started
-// with ~relocaliser) it succeeds and the node reports the lost state on /diagnostics.
+// ~relocalise needs recovery on: with `relocaliser: ""` (this node) it says so; a second node
+// started with the defaults (recovery on, issue 34) succeeds and reports the lost state on
+// /diagnostics.
 TEST_F(BadInput, RelocaliseService) {
   std_srvs::Trigger none;
   ASSERT_TRUE(ros::service::call("/ekf_slam/relocalise", none));
@@ -498,9 +499,8 @@ TEST_F(BadInput, RelocaliseService) {
 
   const pid_t pid = fork();
   if (pid == 0) {
-    execl(EKF_SLAM_NODE_BIN, EKF_SLAM_NODE_BIN, "__name:=ekf_slam_reloc",
-          "_relocaliser:=ekf_slam/FGCBB", "odom:=/unused_odom", "scan:=/unused_scan",
-          "observations:=/unused_observations", static_cast<char*>(nullptr));
+    execl(EKF_SLAM_NODE_BIN, EKF_SLAM_NODE_BIN, "__name:=ekf_slam_reloc", "odom:=/unused_odom",
+          "scan:=/unused_scan", "observations:=/unused_observations", static_cast<char*>(nullptr));
     _exit(127);
   }
   ASSERT_GT(pid, 0);
@@ -517,7 +517,7 @@ TEST_F(BadInput, RelocaliseService) {
   const bool reported = waitFor([&] { return lost_state.find("LOST") != std::string::npos; }, 5.0);
   kill(pid, SIGINT);
   waitpid(pid, nullptr, 0);
-  ASSERT_TRUE(up) << "the node with a relocaliser did not start";
+  ASSERT_TRUE(up) << "the node with the default recovery did not start";
   ASSERT_TRUE(called);
   EXPECT_TRUE(trigger.response.success) << trigger.response.message;
   EXPECT_TRUE(reported) << "diagnostics: '" << lost_state << "'";

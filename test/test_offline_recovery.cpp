@@ -53,12 +53,20 @@ TEST(OfflineRecovery, KidnappedWorldIsRecoveredAndTheMapWritten) {
   EXPECT_EQ(header, "ekf_slam_map 1");
 }
 
-TEST(OfflineRecovery, WithoutRelocaliserTheKidnapIsNotRecovered) {
+// Recovery is on by default (issue 34); --relocaliser "" turns it off.
+TEST(OfflineRecovery, TheKidnapIsRecoveredByDefaultNotWithRecoveryOff) {
   const SimulatedBag bag("rrw_kidnap_6");
   std::ostringstream log;
-  const nlohmann::json j = metrics(runOffline(bag.options("run"), log));
+  OfflineOptions off = bag.options("off");
+  off.relocaliser = "";
+  const nlohmann::json j = metrics(runOffline(off, log));
+  EXPECT_EQ(j["relocaliser"], "");
   EXPECT_EQ(j["counters"]["relocalisations"].get<int>(), 0);
   EXPECT_GT(j["truth"]["pose_rmse_m"].get<double>(), 5.0);
+  const nlohmann::json on = metrics(runOffline(bag.options("on"), log));
+  EXPECT_EQ(on["relocaliser"], "FGCBB");
+  EXPECT_GE(on["counters"]["relocalisations"].get<int>(), 1);
+  EXPECT_LT(on["truth"]["pose_rmse_m"].get<double>(), j["truth"]["pose_rmse_m"].get<double>());
 }
 
 TEST(OfflineRecovery, InjectedKidnapIsRecovered) {
@@ -101,6 +109,21 @@ TEST(OfflineRecovery, InjectedKidnapIsRecovered) {
   }
   EXPECT_GE(compared, 2);
   EXPECT_EQ(j["truth"]["duplicates"].get<int>(), 0);
+  // metrics.json lists the event: where it went lost, why, and the fix's correction, which
+  // undoes the injected jump of 36 m and 1.5 rad (issue 34, item 4).
+  ASSERT_EQ(j["lost_event_list"].size(), 1u) << j.dump(1);
+  const nlohmann::json& e = j["lost_event_list"][0];
+  EXPECT_EQ(e["scan"].get<int>(), lost_scan);
+  EXPECT_FALSE(e["reason"].get<std::string>().empty());
+  EXPECT_EQ(e["end"], "relocalised");
+  EXPECT_EQ(e["end_scan"].get<int>(), scan);
+  EXPECT_EQ(e["scans_lost"].get<int>(), scan - lost_scan);
+  EXPECT_NEAR(e["correction_m"].get<double>(), std::hypot(30.0, 20.0), 3.0);
+  EXPECT_NEAR(e["correction_rad"].get<double>(), -1.5, 0.1);
+  EXPECT_GE(e["pairings"].get<int>(), 5);
+  EXPECT_NE(log.str().find(" rad, "), std::string::npos) << log.str();
+  // A run that never gets lost lists nothing (its metrics.json is the run's without recovery).
+  EXPECT_FALSE(plain.contains("lost_event_list"));
 }
 
 TEST(OfflineRecovery, SavedMapWithUnknownPoseIsFoundAgain) {
@@ -121,7 +144,7 @@ TEST(OfflineRecovery, SavedMapWithUnknownPoseIsFoundAgain) {
   EXPECT_LT(finalDistance(j, built), 1.0);
   // Unknown pose without a relocaliser, or without a map: clear errors.
   OfflineOptions bad = second;
-  bad.relocaliser.clear();
+  bad.relocaliser = "";  // off
   EXPECT_THROW(runOffline(bad, log), std::runtime_error);
   bad = second;
   bad.load_map.clear();
@@ -142,6 +165,14 @@ TEST(OfflineRecovery, ParsesTheRecoveryArguments) {
       << error;
   EXPECT_EQ(o.relocaliser, "FGCBB");
   EXPECT_EQ(o.load_map, "m.txt");
+  // Unset: the YAML's, else the default; "" turns recovery off.
+  OfflineOptions plain, off;
+  ASSERT_TRUE(parseOfflineArguments({"--bag", "b", "--out", "d"}, &plain, &help, &error));
+  EXPECT_FALSE(plain.relocaliser.has_value());
+  ASSERT_TRUE(parseOfflineArguments({"--bag", "b", "--out", "d", "--relocaliser", ""}, &off, &help,
+                                    &error));
+  ASSERT_TRUE(off.relocaliser.has_value());
+  EXPECT_EQ(*off.relocaliser, "");
   EXPECT_TRUE(o.unknown_pose);
   ASSERT_EQ(o.kidnaps.size(), 2u);
   EXPECT_EQ(o.kidnaps[0].scan, 2000u);

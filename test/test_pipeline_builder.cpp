@@ -63,8 +63,7 @@ TEST(PipelineBuilder, NamesAndDefaults) {
   const PipelineParts p = build("");
   EXPECT_EQ(p.associator_name, "ekf_slam/DJNN");
   EXPECT_EQ(p.extractor_name, "ekf_slam/TreeExtractor");
-  EXPECT_TRUE(p.relocaliser_name.empty());
-  EXPECT_EQ(p.relocaliser, nullptr);
+  EXPECT_EQ(p.relocaliser_name, "ekf_slam/FGCBB");
   ASSERT_NE(dynamic_cast<DJNN*>(p.associator.get()), nullptr);
   ASSERT_NE(dynamic_cast<TreeFeatureExtractor*>(p.extractor.get()), nullptr);
   EXPECT_EQ(p.node.map_frame, "map");
@@ -139,8 +138,71 @@ TEST(PipelineBuilder, PluginsOfOneNameShareTheirSection) {
   EXPECT_EQ(errorOf(both + "RRWSC:\n  stale_scans: 5\n  min_inliers: 6\n"), "");
   EXPECT_EQ(errorOf(both + "RRWSC:\n  min_inlier: 6\n"),
             "unknown parameter test.yaml:RRWSC/min_inlier (did you mean min_inliers?)");
-  // Without the relocaliser, its key is nobody's.
-  EXPECT_NE(errorOf("associator: RRWSC\nRRWSC:\n  min_inliers: 6\n"), "");
+  // The RRWSC associator brings the RRWSC relocaliser; without it, its key is nobody's.
+  EXPECT_EQ(errorOf("associator: RRWSC\nRRWSC:\n  min_inliers: 6\n"), "");
+  EXPECT_NE(errorOf("associator: RRWSC\nrelocaliser: \"\"\nRRWSC:\n  min_inliers: 6\n"), "");
+}
+
+// Recovery is on by default (issue 34) with the relocaliser that measured best with no wrong
+// fix; `relocaliser: ""` (or an override to "", the tools' --relocaliser "") turns it off.
+TEST(PipelineBuilder, RecoveryIsOnByDefaultAndEmptyTurnsItOff) {
+  EXPECT_STREQ(kDefaultRelocaliser, "ekf_slam/FGCBB");
+  EXPECT_EQ(PipelineConfig().relocaliser, kDefaultRelocaliser);
+  const PipelineParts on = build("");
+  EXPECT_EQ(on.relocaliser_name, "ekf_slam/FGCBB");
+  EXPECT_EQ(on.config.relocaliser, "ekf_slam/FGCBB");
+  ASSERT_NE(dynamic_cast<FGCBB*>(on.relocaliser.get()), nullptr);
+  EXPECT_EQ(makePipeline(on)->relocaliser(), on.relocaliser.get());
+
+  const PipelineParts off = build("relocaliser: \"\"\n");
+  EXPECT_EQ(off.relocaliser_name, "");
+  EXPECT_EQ(off.config.relocaliser, "");
+  EXPECT_EQ(off.relocaliser, nullptr);
+  EXPECT_EQ(makePipeline(off)->relocaliser(), nullptr);
+
+  YamlConfiguration c = YamlConfiguration::fromText("relocaliser: FGCBB\n");
+  EXPECT_EQ(relocaliserName(c), "ekf_slam/FGCBB");
+  c.setOverride("", "relocaliser", "");
+  EXPECT_EQ(relocaliserName(c), "");
+  EXPECT_EQ(buildPipeline(c, DirectFactory()).relocaliser, nullptr);
+}
+
+// An associator brings its relocaliser unless `relocaliser` is set (also to ""): RRWSC the
+// RRWSC relocaliser, every other associator the default.
+TEST(PipelineBuilder, AnAssociatorBringsItsRelocaliser) {
+  EXPECT_EQ(defaultRelocaliserFor("ekf_slam/RRWSC"), "ekf_slam/RRWSC");
+  EXPECT_EQ(defaultRelocaliserFor("RRWSC"), "ekf_slam/RRWSC");
+  for (const char* a : {"ekf_slam/DJNN", "ekf_slam/NN", "ekf_slam/JCBB", "ekf_slam/NNJCBB",
+                        "ekf_slam/Hungarian", "ekf_slam/truth", "other_pkg/RRWSC"}) {
+    EXPECT_EQ(defaultRelocaliserFor(a), kDefaultRelocaliser) << a;
+  }
+  const PipelineParts rrwsc = build("associator: RRWSC\n");
+  EXPECT_EQ(rrwsc.relocaliser_name, "ekf_slam/RRWSC");
+  EXPECT_EQ(rrwsc.config.relocaliser, "ekf_slam/RRWSC");
+  EXPECT_NE(dynamic_cast<RRWSCRelocaliser*>(rrwsc.relocaliser.get()), nullptr);
+  // Set, it holds.
+  EXPECT_EQ(build("associator: RRWSC\nrelocaliser: FGCBB\n").relocaliser_name, "ekf_slam/FGCBB");
+  EXPECT_EQ(build("associator: RRWSC\nrelocaliser: \"\"\n").relocaliser, nullptr);
+  EXPECT_EQ(build("associator: NN\n").relocaliser_name, "ekf_slam/FGCBB");
+  // The associator chosen over the file (--associator) brings its own too.
+  YamlConfiguration c = YamlConfiguration::fromText("associator: DJNN\n");
+  c.setOverride("", "associator", "ekf_slam/RRWSC");
+  EXPECT_EQ(relocaliserName(c), "ekf_slam/RRWSC");
+  EXPECT_EQ(buildPipeline(c, DirectFactory()).relocaliser_name, "ekf_slam/RRWSC");
+}
+
+// The shipped configurations: recovery on (robot.yaml leaves it to the associator, so that
+// choosing RRWSC at launch brings RRWSC's; victoria_park.yaml names FGCBB, measured best there).
+TEST(PipelineBuilder, TheShippedConfigurationsRecover) {
+  const std::string config = std::string(EKF_SLAM_TEST_DATA) + "/../../config/";
+  YamlConfiguration robot(config + "robot.yaml");
+  EXPECT_EQ(buildPipeline(robot, DirectFactory()).relocaliser_name, "ekf_slam/FGCBB");
+  robot.setOverride("", "associator", "ekf_slam/RRWSC");
+  EXPECT_EQ(relocaliserName(robot), "ekf_slam/RRWSC");
+  YamlConfiguration vp(config + "victoria_park.yaml");
+  EXPECT_EQ(buildPipeline(vp, DirectFactory()).relocaliser_name, "ekf_slam/FGCBB");
+  vp.setOverride("", "associator", "ekf_slam/RRWSC");
+  EXPECT_EQ(relocaliserName(vp), "ekf_slam/FGCBB");
 }
 
 TEST(PipelineBuilder, DefaultsLieUnderTheFileAndOverridesOverIt) {

@@ -85,7 +85,7 @@ void expectError(const std::string& name, const std::string& value) {
 
 TEST(PipelineConfig, ReadsTheRecoveryParameters) {
   const PipelineConfig d;
-  EXPECT_EQ(d.relocaliser, "");  // recovery off by default
+  EXPECT_EQ(d.relocaliser, "ekf_slam/FGCBB");  // recovery on by default
   MapParameterSource p;
   p.set("relocaliser", "ekf_slam/FGCBB");
   p.set("lost_unpaired_scans", "4");
@@ -120,6 +120,26 @@ TEST(PipelineConfig, ReadsTheRecoveryParameters) {
       ADD_FAILURE() << name << " = " << value << " accepted";
     } catch (const ParameterError& e) {
       EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+  }
+}
+
+// "In view" for the lost rules can follow a camera's footprint (a convex polygon, sensor frame).
+TEST(PipelineConfig, LostViewPolygon) {
+  EXPECT_TRUE(PipelineConfig().lost_view_polygon.empty());
+  MapParameterSource trapezoid;
+  trapezoid.set("lost_view_polygon", "0.8,-0.5; 4.5,-1.5; 4.5,1.5; 0.8,0.5");
+  const PipelineConfig c = readPipelineConfig(trapezoid);
+  ASSERT_EQ(c.lost_view_polygon.size(), 4u);
+  EXPECT_DOUBLE_EQ(c.lost_view_polygon[1].x(), 4.5);
+  for (const char* bad : {"1,2; 3,4", "0,0; 1,1; 2,2", "0,0; 2,0; 1,1; 2,2; 0,2", "x"}) {
+    MapParameterSource p;
+    p.set("lost_view_polygon", bad);
+    try {
+      readPipelineConfig(p);
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const ParameterError& e) {
+      EXPECT_NE(std::string(e.what()).find("lost_view_polygon"), std::string::npos) << e.what();
     }
   }
 }

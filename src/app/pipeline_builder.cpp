@@ -4,8 +4,8 @@
 #include <memory>
 #include <utility>
 
-#include "ekf_slam/core/pipeline/pipeline_config.h"
 #include "ekf_slam/core/common/recording_parameter_source.h"
+#include "ekf_slam/core/pipeline/pipeline_config.h"
 
 namespace ekf_slam {
 
@@ -14,6 +14,31 @@ std::string pluginLookupName(const std::string& name) {
 }
 
 std::string pluginShortName(const std::string& name) { return name.substr(name.rfind('/') + 1); }
+
+std::string defaultRelocaliserFor(const std::string& associator) {
+  // RRWSC's graph matching recognises landmarks without the pose; its relocaliser is the same
+  // matcher, and lost rule 3 (only RRWSC reports gate_refused) is confirmed by it.
+  if (pluginLookupName(associator) == "ekf_slam/RRWSC") return "ekf_slam/RRWSC";
+  return kDefaultRelocaliser;
+}
+
+namespace {
+
+// The rule of relocaliserName on the top-level parameters.
+std::string relocaliserIn(const ParameterSource& top, const std::string& associator) {
+  std::string name;
+  if (!top.get("relocaliser", &name)) name = defaultRelocaliserFor(associator);
+  return name.empty() ? "" : pluginLookupName(name);
+}
+
+}  // namespace
+
+std::string relocaliserName(const Configuration& configuration) {
+  const ParameterSection top = configuration.top();
+  std::string associator = kDefaultAssociator;
+  top.source->get("associator", &associator);
+  return relocaliserIn(*top.source, associator);
+}
 
 namespace {
 
@@ -54,8 +79,9 @@ PipelineParts buildPipeline(const Configuration& configuration, const PluginFact
   parts.associator_name =
       pluginLookupName(ParameterReader(top.source).text("associator", kDefaultAssociator));
   parts.extractor_name = pluginLookupName(parts.config.feature_extractor);
-  if (!parts.config.relocaliser.empty())
-    parts.relocaliser_name = pluginLookupName(parts.config.relocaliser);
+  // Set (also to "": off), or the associator's own (defaultRelocaliserFor).
+  parts.relocaliser_name = relocaliserIn(top.source, parts.associator_name);
+  parts.config.relocaliser = parts.relocaliser_name;
 
   Sections sections(configuration);
   parts.associator = plugins.associator(parts.associator_name);

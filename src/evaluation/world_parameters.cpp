@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string>
+#include <vector>
 
 #include "ekf_slam/core/common/coverage_grid.h"
 #include "ekf_slam/core/common/pose2d.h"
@@ -29,6 +31,15 @@ constexpr double kLargeWorldAreaSize = 150.0;
 // ... and this much slack [m] (cekf_area_slack): crossing the mapped grid after half an hour of
 // exploring corrects the pose by metres per scan, which closed areas again within 1-4 scans.
 constexpr double kLargeWorldAreaSlack = 5.0;
+
+// A polygon as the parameters write it: "x1,y1; x2,y2; ...".
+std::string polygonText(const std::vector<Eigen::Vector2d>& polygon) {
+  std::string out;
+  for (const Eigen::Vector2d& v : polygon) {
+    out += (out.empty() ? "" : "; ") + text(v.x()) + "," + text(v.y());
+  }
+  return out;
+}
 
 double coveringRange(const World& w) {
   if (std::isfinite(w.sensor.max_range)) return w.sensor.max_range;
@@ -61,6 +72,10 @@ std::map<std::string, std::string> pipelineParametersFor(const World& world) {
   const double pd =
       std::min(s.detectionProbability(s.min_range), s.detectionProbability(coveringRange(world)));
   p["lost_min_paired_share"] = text(0.5 * pd);
+  // Places a relocaliser cannot tell apart: recovery off (World::recognisable_places).
+  if (!world.recognisable_places) p["relocaliser"] = "";
+  // A camera's footprint: landmarks beside or behind it are not in view.
+  if (s.polygon.size() >= 3) p["lost_view_polygon"] = polygonText(s.polygon);
   if (world.pose_delta_odometry) {
     // The simulator's noise on one increment of length d = v dt turning by a = w dt, with
     // w = v tan(steer) / L: translation sigma_v dt = (sigma_v / v) d; rotation
@@ -192,13 +207,7 @@ std::map<std::string, std::string> associatorParametersFor(const World& world,
   if (pd < 1.0) p["detection_probability"] = text(pd);
   const double R = coveringRange(world);
   if (R < 15.0) p["range_margin"] = text(0.2 * R);
-  if (s.polygon.size() >= 3) {
-    std::string poly;
-    for (const Eigen::Vector2d& v : s.polygon) {
-      poly += (poly.empty() ? "" : "; ") + text(v.x()) + "," + text(v.y());
-    }
-    p["fov_polygon"] = poly;
-  }
+  if (s.polygon.size() >= 3) p["fov_polygon"] = polygonText(s.polygon);
   if (knowledge == Knowledge::kOracle) {
     for (const auto& [key, value] : oracleDjnnParameters(world)) p[key] = value;
   }

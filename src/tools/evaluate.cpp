@@ -158,16 +158,15 @@ std::vector<std::string> associatorShortNames(const EvaluateOptions& o) {
 std::string recoveryTable(const Evaluation& e, const std::string& world,
                           const std::vector<std::string>& shorts) {
   std::ostringstream md;
-  md << "\nRecovery with " << e.options.relocaliser << " (within 2 s: pose error under "
-     << kRecoveredDistance
+  md << "\nRecovery (within 2 s: pose error under " << kRecoveredDistance
      << " m at most 2 s after the kidnap; \"map\": the pose after the rigid transform that best "
         "fits the map's landmarks onto the truth):\n\n"
-     << "| associator | runs | lost events | relocalisations | wrong | recovered | within 2 s | "
-        "recovery [s] | pose RMSE after [m] | wrong (map) | within 2 s (map) |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|\n";
+     << "| associator | relocaliser | runs | lost events | relocalisations | wrong | recovered | "
+        "within 2 s | recovery [s] | pose RMSE after [m] | wrong (map) | within 2 s (map) |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const std::string& a : shorts) {
     const auto rows = select(e, world, a);
-    if (rows.empty()) continue;
+    if (rows.empty() || rows.front()->relocaliser.empty()) continue;
     std::uint64_t lost = 0, relocs = 0, wrong = 0, recovered = 0, fast = 0, wrong_map = 0,
                   fast_map = 0;
     std::vector<double> secs, after;
@@ -185,11 +184,11 @@ std::string recoveryTable(const Evaluation& e, const std::string& world,
       wrong_map += m.wrong_relocalisations_map;
       fast_map += m.recovery_scans_map >= 0 && m.recovery_s_map <= 2.0;
     }
-    md << "| " << a << " | " << rows.size() << " | " << lost << " | " << relocs << " | " << wrong
-       << " | " << recovered << " | " << fast << " (" << format(100.0 * fast / rows.size(), 0)
-       << " %) | " << format(spread(secs), 2) << " | " << format(spread(after), 3) << " | "
-       << wrong_map << " | " << fast_map << " (" << format(100.0 * fast_map / rows.size(), 0)
-       << " %) |\n";
+    md << "| " << a << " | " << rows.front()->relocaliser << " | " << rows.size() << " | " << lost
+       << " | " << relocs << " | " << wrong << " | " << recovered << " | " << fast << " ("
+       << format(100.0 * fast / rows.size(), 0) << " %) | " << format(spread(secs), 2) << " | "
+       << format(spread(after), 3) << " | " << wrong_map << " | " << fast_map << " ("
+       << format(100.0 * fast_map / rows.size(), 0) << " %) |\n";
   }
   return md.str();
 }
@@ -256,26 +255,31 @@ YamlConfiguration evaluationConfiguration(const EvaluateOptions& o, const sim::W
     for (const auto& [name, value] : extractor.parameters)
       c.setDefault(extractor.name, name, value);
   }
-  std::vector<std::string> plugins = {pluginShortName(associator)};
-  if (!o.relocaliser.empty()) plugins.push_back(pluginShortName(o.relocaliser));
+  // The options over the file: first the top level, which decides the plugins.
+  c.setOverride("", "associator", associator);
+  if (o.relocaliser) c.setOverride("", "relocaliser", *o.relocaliser);
+  if (!o.odometry_correction.empty())
+    c.setOverride("", "odometry_correction", o.odometry_correction);
+  for (const auto& [name, value] : o.overrides) {
+    if (name.find('/') == std::string::npos) c.setOverride("", name, value);
+  }
+  // The plugins' sections: the world's values, then --set SECTION/NAME ('*': the associator).
+  const std::string assoc_section = pluginShortName(associator);
+  std::vector<std::string> plugins = {assoc_section};
+  const std::string relocaliser = relocaliserName(c);
+  if (!relocaliser.empty() && pluginShortName(relocaliser) != assoc_section)
+    plugins.push_back(pluginShortName(relocaliser));
   for (const std::string& plugin : plugins) {
     for (const auto& [name, value] : sim::associatorParametersFor(w, plugin, o.knowledge))
       c.setDefault(plugin, name, value);
   }
-  // The options over the file.
-  c.setOverride("", "associator", associator);
-  if (!o.relocaliser.empty()) c.setOverride("", "relocaliser", o.relocaliser);
-  if (!o.odometry_correction.empty())
-    c.setOverride("", "odometry_correction", o.odometry_correction);
   for (const auto& [name, value] : o.overrides) {
     const auto slash = name.find('/');
-    if (slash == std::string::npos) {
-      c.setOverride("", name, value);
-      continue;
-    }
+    if (slash == std::string::npos) continue;
     const std::string section = name.substr(0, slash);
     for (const std::string& plugin : plugins) {
-      if (section == "*" || section == plugin) c.setOverride(plugin, name.substr(slash + 1), value);
+      if ((section == "*" && plugin == assoc_section) || section == plugin)
+        c.setOverride(plugin, name.substr(slash + 1), value);
     }
   }
   return c;
@@ -310,13 +314,16 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
     sim::World world;
     YamlConfiguration configuration;
     std::string odometry_correction;
+    std::string relocaliser;
   };
   std::vector<RunSetup> setups;  // world-major, then associator
   for (const std::string& name : e.worlds) {
     const sim::World w = sim::makeWorld(name);
     for (const std::string& associator : o.associators) {
-      RunSetup s{w, evaluationConfiguration(o, w, associator), ""};
-      s.odometry_correction = buildPipeline(s.configuration, plugins).config.correction.mode;
+      RunSetup s{w, evaluationConfiguration(o, w, associator), "", ""};
+      const PipelineParts parts = buildPipeline(s.configuration, plugins);
+      s.odometry_correction = parts.config.correction.mode;
+      if (parts.relocaliser) s.relocaliser = pluginShortName(parts.relocaliser_name);
       setups.push_back(std::move(s));
     }
   }
@@ -330,6 +337,7 @@ Evaluation runEvaluation(const EvaluateOptions& o, std::ostream& log) {
       row.run = r;
       row.seed = first + static_cast<std::uint64_t>(r);
       row.odometry_correction = setups[s].odometry_correction;
+      row.relocaliser = setups[s].relocaliser;
       e.rows.push_back(std::move(row));
     }
   }
@@ -440,7 +448,10 @@ std::string summaryMarkdown(const Evaluation& e, const std::string& command) {
          << format(spread(wall).mean, 2) << " | " << correctionSummary(rows, w) << " |\n";
     }
     md << mapTable(e, world, shorts);
-    if (!o.relocaliser.empty()) md << recoveryTable(e, world, shorts);
+    const bool recovery = std::any_of(e.rows.begin(), e.rows.end(), [&](const EvaluationRow& r) {
+      return r.world == world && !r.relocaliser.empty();
+    });
+    if (recovery) md << recoveryTable(e, world, shorts);
   }
   return md.str();
 }
@@ -568,8 +579,10 @@ void printEvaluateUsage(std::ostream& out) {
          "  --odometry-correction  none, speed_scale, speed_scale_yaw_bias or wheel_factors\n"
          "             (the pipeline's odometry_correction; results.csv gets the final\n"
          "             estimates, their std devs and the world's true values)\n"
-         "  --relocaliser  e.g. ekf_slam/FGCBB: lost-robot recovery in every run, scored in\n"
-         "             results.csv (relocalisations, wrong_relocalisations, recovery_scans, ...)\n"
+         "  --relocaliser  e.g. ekf_slam/FGCBB, \"\" for none: lost-robot recovery in every run\n"
+         "             (default: the YAML's, else FGCBB, RRWSC with the RRWSC associator), scored\n"
+         "             in results.csv (relocalisations, wrong_relocalisations, recovery_scans, "
+         "...)\n"
          "  --oracle   also configure DJNN from the simulator's truth (landmark density and\n"
          "             spacing, clutter, movers' speed, per-world switches): a comparison\n"
          "             column only. By default a world is configured from its sensor's\n"

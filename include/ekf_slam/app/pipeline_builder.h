@@ -20,21 +20,31 @@
 #include "ekf_slam/core/association/data_association.h"
 #include "ekf_slam/core/feature_extraction/feature_extractor.h"
 #include "ekf_slam/core/feature_extraction/scan_filter_chain.h"
-#include "ekf_slam/core/relocalisation/relocaliser.h"
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
+#include "ekf_slam/core/relocalisation/relocaliser.h"
 
 namespace ekf_slam {
 
-/// The plugins used when the configuration names none (the relocaliser's when it is switched on
-/// without a name).
+/// The plugins used when the configuration names none (the relocaliser's, kDefaultRelocaliser,
+/// is in core/pipeline/pipeline_config.h; see defaultRelocaliserFor).
 constexpr const char* kDefaultAssociator = "ekf_slam/DJNN";
-constexpr const char* kDefaultRelocaliser = "ekf_slam/FGCBB";
 constexpr const char* kDefaultExtractor = "ekf_slam/TreeExtractor";
 
 /// "DJNN" -> "ekf_slam/DJNN" (a name without a package gets ours); full names are kept.
 std::string pluginLookupName(const std::string& name);
 /// "ekf_slam/DJNN" -> "DJNN": the plugin's section (and its name in reports).
 std::string pluginShortName(const std::string& name);
+
+/// The relocaliser an associator brings (lookup names): an associator that recognises landmarks
+/// without the pose brings the relocaliser built on the same matcher (ekf_slam/RRWSC ->
+/// ekf_slam/RRWSC); every other associator kDefaultRelocaliser. Used when `relocaliser` is not
+/// set (docs/relocalisation.md, "Which relocaliser").
+std::string defaultRelocaliserFor(const std::string& associator);
+
+/// The relocaliser a configuration asks for, as a lookup name; empty: recovery off. `relocaliser`
+/// when it is set, also to "" (off); else the one `associator` brings. buildPipeline's rule, for
+/// a tool that must know before building (evaluate gives that plugin's section the world's values).
+std::string relocaliserName(const Configuration& configuration);
 
 /// Creates plugins, unconfigured, by lookup name ("ekf_slam/DJNN"). Throws UnknownPluginError
 /// (listing the names it knows) for a name it does not know.
@@ -58,7 +68,7 @@ struct PipelineParts {
   PipelineConfig config;
   std::string associator_name;  ///< lookup names
   std::string extractor_name;
-  std::string relocaliser_name;  ///< empty: recovery off
+  std::string relocaliser_name;  ///< empty: recovery off (relocaliserName); also config.relocaliser
   std::shared_ptr<DataAssociation> associator;
   std::shared_ptr<FeatureExtractor> extractor;
   std::shared_ptr<Relocaliser> relocaliser;  ///< null: recovery off

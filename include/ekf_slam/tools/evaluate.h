@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <utility>
@@ -43,9 +44,10 @@ struct EvaluateOptions {
   /// DJNN), --set '*/NAME=VALUE' (every associator). Applied last.
   std::vector<std::pair<std::string, std::string>> overrides;
   /// Relocaliser plugin ("FGCBB"): lost-robot recovery in every run, scored in the recovery
-  /// columns of results.csv; empty: none. Its parameters: its YAML section, the world's
+  /// columns of results.csv; "": none; unset: the YAML's, else the associator's
+  /// (defaultRelocaliserFor). Its parameters: its YAML section, the world's
   /// (sim::associatorParametersFor), then --set NAME/...
-  std::string relocaliser;
+  std::optional<std::string> relocaliser;
   int jobs = 0;  ///< worker threads; 0 = the number of cores
   /// --odometry-correction MODE: the pipeline's odometry_correction (empty: the YAML's or none).
   std::string odometry_correction;
@@ -62,6 +64,7 @@ struct EvaluationRow {
   int run = 0;             ///< 0-based
   std::uint64_t seed = 0;
   std::string odometry_correction = "none";  ///< the pipeline's mode for this run
+  std::string relocaliser;                   ///< short name; empty: recovery off
   RunMetrics metrics;
   std::vector<double> nees;             ///< per scan (RunScorer::neesPerScan)
   std::vector<Eigen::Vector2d> errors;  ///< per scan (RunScorer::errorsPerScan)

@@ -66,8 +66,17 @@ void SensorModel::validate(const ParameterReader& r) const {
     r.fail("clutter_density", "must be finite and >= 0");
   }
   if (polygon.empty()) return;
-  if (polygon.size() < 3) r.fail("fov_polygon", "needs at least 3 vertices");
-  if (!(std::abs(signedArea2(polygon)) > 0.0)) r.fail("fov_polygon", "has no area");
+  if (const std::string problem = polygonProblem(polygon); !problem.empty())
+    r.fail("fov_polygon", problem);
+  for (const Eigen::Vector2d& v : polygon) {
+    // The region is searched within sensor_range of the sensor (spatial index).
+    if (!(v.norm() <= max_range)) r.fail("fov_polygon", "has a vertex beyond sensor_range");
+  }
+}
+
+std::string polygonProblem(const std::vector<Eigen::Vector2d>& polygon) {
+  if (polygon.size() < 3) return "needs at least 3 vertices";
+  if (!(std::abs(signedArea2(polygon)) > 0.0)) return "has no area";
   // Convex: every turn has the same sign.
   double sign = 0.0;
   for (std::size_t i = 0; i < polygon.size(); ++i) {
@@ -77,12 +86,9 @@ void SensorModel::validate(const ParameterReader& r) const {
     const double turn = e1.x() * e2.y() - e1.y() * e2.x();
     if (turn == 0.0) continue;
     if (sign == 0.0) sign = turn;
-    if (turn * sign < 0.0) r.fail("fov_polygon", "must be convex");
+    if (turn * sign < 0.0) return "must be convex";
   }
-  for (const Eigen::Vector2d& v : polygon) {
-    // The region is searched within sensor_range of the sensor (spatial index).
-    if (!(v.norm() <= max_range)) r.fail("fov_polygon", "has a vertex beyond sensor_range");
-  }
+  return "";
 }
 
 std::vector<Eigen::Vector2d> parsePolygon(const std::string& text) {

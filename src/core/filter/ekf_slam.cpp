@@ -548,6 +548,24 @@ Eigen::Vector3d EkfSlam::clonePose(CloneId id) const {
                : Eigen::Vector3d(x_.segment<3>(r));
 }
 
+bool EkfSlam::restorePose(CloneId id) {
+  const int r = cloneRow(id);
+  if (r < 0) return false;
+  mirrorLower();  // both triangles current: the rows are copied whole
+  auto P = this->P();
+  for (Eigen::Index j = 3; j < dim_; ++j) {
+    if (j >= r && j < r + 3) continue;
+    const Eigen::Vector3d c = P.block<3, 1>(r, j);
+    P.block<3, 1>(0, j) = c;
+    P.block<1, 3>(j, 0) = c.transpose();
+  }
+  const Eigen::Matrix3d Pcc = P.block<3, 3>(r, r);
+  P.topLeftCorner<3, 3>() = Pcc;
+  x_.head<3>() = x_.segment<3>(r);
+  prior_position_ = x_.head<2>();
+  return removeClone(id);
+}
+
 bool EkfSlam::removeClone(CloneId id) {
   const auto it = std::find(clones_.begin(), clones_.end(), id);
   if (it == clones_.end()) return false;

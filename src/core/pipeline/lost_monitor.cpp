@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
+
+#include <Eigen/Geometry>
 
 #include "ekf_slam/core/common/angles.h"
 
@@ -16,7 +19,12 @@ LostMonitor::LostMonitor(const PipelineConfig& config, const EkfSlam& filter,
       index_(index),
       model_(model),
       book_(book),
-      nis_chi2_(config.lost_nis_probability, 64) {}
+      nis_chi2_(config.lost_nis_probability, 64) {
+  // Only the polygon is tested through it: landmarksInView checks the range and the wedge.
+  view_.max_range = std::numeric_limits<double>::infinity();
+  view_.field_of_view = 2.0 * M_PI;
+  view_.polygon = config.lost_view_polygon;
+}
 
 void LostMonitor::restart() {
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
@@ -34,8 +42,13 @@ int LostMonitor::landmarksInView(std::uint32_t scans) const {
     // Recent landmarks say nothing about being lost.
     if (book_.recent(filter_.landmarkIds()[k], scans)) continue;
     const Eigen::Vector2d d = filter_.landmark(k) - sensor.head<2>();
-    expected += std::abs(wrapAngle(std::atan2(d.y(), d.x()) - sensor.z())) <=
-                0.5 * config_.lost_field_of_view;
+    if (!(std::abs(wrapAngle(std::atan2(d.y(), d.x()) - sensor.z())) <=
+          0.5 * config_.lost_field_of_view))
+      continue;
+    // The sensor's footprint, in the sensor frame.
+    if (view_.polygon.size() >= 3 && !view_.contains(Eigen::Rotation2Dd(-sensor.z()) * d, 0.0, 0.0))
+      continue;
+    ++expected;
   }
   return expected;
 }
@@ -47,17 +60,29 @@ LostMonitor::Verdict LostMonitor::afterUpdate(ScanReport* report) {
   // Rule 1: observations, none paired with an established landmark, for several scans. Pairings
   // with recent landmarks do not count: a kidnapped filter maps the place it is in anew, and
   // pairs with what it has just mapped.
-  int established = 0;
-  for (std::size_t i = 0; i < a.decision.size(); ++i)
-    established += a.decision[i] == Decision::kPaired && !book_.recent(a.landmark[i], scans);
+  int established = 0, recent = 0;
+  for (std::size_t i = 0; i < a.decision.size(); ++i) {
+    if (a.decision[i] != Decision::kPaired) continue;
+    (book_.recent(a.landmark[i], scans) ? recent : established) += 1;
+  }
   // lost_min_paired_share > 0: a few chance pairings among many landmarks in view still count
   // as unpaired.
   const bool share_rule = config_.lost_min_paired_share > 0.0;
   if (share_rule) report->landmarks_expected = landmarksInView(scans);
+  // Nor is a scan unpaired whose observations the established map explains: of those not
+  // explained by recent landmarks (new ground being mapped), at least the share. Landmarks in view
+  // that are never seen again (movers an associator mapped) then do not make a tracking filter
+  // lost. With a share of 0 the first test always holds.
+  const double share = config_.lost_min_paired_share;
   if (established > 0 &&
-      established >= config_.lost_min_paired_share * report->landmarks_expected) {
+      (established >= share * report->landmarks_expected || established >= share * (n - recent))) {
     unpaired_streak_ = 0;
-  } else if (n >= config_.lost_min_observations) {
+  } else if (n >= config_.lost_min_observations &&
+             (!share_rule ||
+              report->landmarks_expected - established >= config_.lost_min_expected)) {
+    // (With the share rule a scan counts only when it missed lost_min_expected established
+    // landmarks in view: two or three cannot tell a kidnap from misses, an associator holding
+    // back, or new ground.)
     ++unpaired_streak_;
   }
   // Rule 2: the paired observations persistently disagree with the filter.
@@ -108,18 +133,23 @@ LostMonitor::Verdict LostMonitor::afterUpdate(ScanReport* report) {
     if (config_.lost_share_window <= 0) report->landmarks_expected = landmarksInView(scans);
     share_probe = report->landmarks_expected > 0;
   }
-  if (rule1 || rule2 || rule4) {
-    if (rule1 || rule2) {
-      report->lost_reason =
-          rule1 ? (share_rule ? "under " + std::to_string(config_.lost_min_paired_share) +
-                                    " of the established landmarks in view paired for "
-                              : std::string("no established landmark paired for ")) +
-                      std::to_string(unpaired_streak_) + " scans, " +
-                      std::to_string(report->landmarks_expected) + " in view"
-                : "NIS above chi2(2k, " + std::to_string(config_.lost_nis_probability) + ") for " +
-                      std::to_string(nis_streak_) + " scans";
+  if (rule1 || rule4) {
+    if (rule1) {
+      report->lost_reason = (share_rule ? "under " + std::to_string(config_.lost_min_paired_share) +
+                                              " of the established landmarks in view paired for "
+                                        : std::string("no established landmark paired for ")) +
+                            std::to_string(unpaired_streak_) + " scans, " +
+                            std::to_string(report->landmarks_expected) + " in view";
     }
     return Verdict::kLost;
+  }
+  // Rule 2 asks the relocaliser: the pairings disagree with the filter, which a loop closed after
+  // a long drift or an inconsistent filter (biased odometry) shows as well as a kidnap; lost only
+  // when the relocaliser puts the vehicle where the estimate does not cover.
+  if (rule2) {
+    report->lost_reason = "NIS above chi2(2k, " + std::to_string(config_.lost_nis_probability) +
+                          ") for " + std::to_string(nis_streak_) + " scans";
+    return Verdict::kProbe;
   }
   // Nothing established paired and nothing established in view: new ground, or a kidnap into a
   // place the filter takes for new ground. The relocaliser tells them apart: a confident pose in

@@ -108,6 +108,10 @@ void PipelineConfig::validate() const {
   nonNegative(lost_view_range, "lost_view_range");
   requireParameter(lost_field_of_view > 0.0 && lost_field_of_view <= 2.0 * M_PI,
                    "lost_field_of_view", "must lie in (0, 2 pi]", lost_field_of_view);
+  if (!lost_view_polygon.empty()) {
+    if (const std::string problem = polygonProblem(lost_view_polygon); !problem.empty())
+      throw ParameterError("parameter lost_view_polygon: " + problem);
+  }
   count(lost_nis_scans, "lost_nis_scans");
   count(lost_rejected_scans, "lost_rejected_scans");
   count(lost_share_window, "lost_share_window");
@@ -123,6 +127,14 @@ void PipelineConfig::validate() const {
                    "must be at least 1", relocalisation_held_fixes);
   requireParameter(relocalisation_window_scans >= 1, "relocalisation_window_scans",
                    "must be at least 1", relocalisation_window_scans);
+  requireParameter(lost_map_pair_probability > 0.0 && lost_map_pair_probability < 1.0,
+                   "lost_map_pair_probability", "must lie in (0, 1)", lost_map_pair_probability);
+  requireParameter(
+      lost_map_new_probability >= lost_map_pair_probability && lost_map_new_probability < 1.0,
+      "lost_map_new_probability", "must lie in [lost_map_pair_probability, 1)",
+      lost_map_new_probability);
+  requireParameter(lost_map_min_sightings >= 1, "lost_map_min_sightings", "must be at least 1",
+                   lost_map_min_sightings);
   requireParameter(relocalisation_confirm_distance > 0.0, "relocalisation_confirm_distance",
                    "must be positive", relocalisation_confirm_distance);
   requireParameter(relocalisation_confirm_angle > 0.0 && relocalisation_confirm_angle <= M_PI,
@@ -232,6 +244,15 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_recent_informative = r.flag("lost_recent_informative", c.lost_recent_informative);
   c.lost_view_range = r.nonNegative("lost_view_range", c.lost_view_range);
   c.lost_field_of_view = r.inRange("lost_field_of_view", c.lost_field_of_view, 1e-6, 2.0 * M_PI);
+  if (const std::string polygon = r.text("lost_view_polygon", ""); !polygon.empty()) {
+    try {
+      c.lost_view_polygon = parsePolygon(polygon);
+    } catch (const std::invalid_argument& e) {
+      r.fail("lost_view_polygon", e.what());
+    }
+    if (const std::string problem = polygonProblem(c.lost_view_polygon); !problem.empty())
+      r.fail("lost_view_polygon", problem);
+  }
   c.lost_nis_scans = r.integer("lost_nis_scans", c.lost_nis_scans, 0, 100000);
   c.lost_rejected_scans = r.integer("lost_rejected_scans", c.lost_rejected_scans, 0, 100000);
   c.lost_share_window = r.integer("lost_share_window", c.lost_share_window, 0, 100000);
@@ -256,6 +277,12 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
       r.integer("relocalisation_held_fixes", c.relocalisation_held_fixes, 1, 100);
   c.relocalisation_window_scans =
       r.integer("relocalisation_window_scans", c.relocalisation_window_scans, 1, 100);
+  c.lost_map_scans = r.flag("lost_map_scans", c.lost_map_scans);
+  c.lost_map_pair_probability =
+      r.probability("lost_map_pair_probability", c.lost_map_pair_probability);
+  c.lost_map_new_probability =
+      r.probability("lost_map_new_probability", c.lost_map_new_probability);
+  c.lost_map_min_sightings = r.integer("lost_map_min_sightings", c.lost_map_min_sightings, 1, 1000);
   c.relocalisation_confirm_distance =
       r.positive("relocalisation_confirm_distance", c.relocalisation_confirm_distance);
   c.relocalisation_confirm_angle =

@@ -45,21 +45,25 @@ void Recovery::setRelocaliser(std::shared_ptr<Relocaliser> relocaliser) {
 void Recovery::reset() {
   lost_ = false;
   tracked_.clear();
+  seen_while_lost_.clear();
 }
 
 void Recovery::enterLost(const std::vector<MapLandmark>& map, bool pose_unknown) {
   lost_ = true;
   pose_unknown_ = pose_unknown;
   lost_scans_ = 0;
+  scans_lost_ = 0;
   held_.clear();
   window_.clear();  // scans from before are at a pose now in doubt
   lost_path_.clear();
+  seen_while_lost_.clear();
   if (pose_unknown) tracked_.clear();  // a new map: the scans before say nothing about the pose
   relocaliser_->setMap(map);           // frozen until found
 }
 
 void Recovery::carry(const MotionStep& step) {
   if (lost_ && !window_.empty()) window_.addMotion(step.F, step.Q);
+  if (lost_) seen_while_lost_.carry(step);
   if (!tracked_.empty()) {
     TrackedPose& t = tracked_.back();
     t.Q = step.F * t.Q * step.F.transpose() + step.Q;
@@ -149,6 +153,7 @@ RelocalisationResult Recovery::relocaliseWindow(ScanReport* report) {
 std::optional<RelocalisationResult> Recovery::relocalise(ScanReport* report, bool* resumed) {
   *resumed = false;
   report->lost = true;
+  ++scans_lost_;
   report->association.resize(report->observations.size());
   const RelocalisationResult r = callRelocaliser(report);
   if (usable(r, report->observations.size()) && confirm(r, report)) return r;
@@ -162,6 +167,7 @@ std::optional<RelocalisationResult> Recovery::relocalise(ScanReport* report, boo
     *resumed = true;
     held_.clear();
     lost_path_.clear();  // tracking resumes from the dead-reckoned path: nothing to correct
+    seen_while_lost_.clear();
     tracked_.clear();
   }
   return std::nullopt;
@@ -245,6 +251,7 @@ void Recovery::fixed(const Eigen::Vector3d& dead_reckoned, ScanReport* report) {
     report->lost_path.push_back(p);
   }
   counters_.lost_path_poses += lost_path_.size();
+  report->lost_scans = scans_lost_;
   lost_path_.clear();
   ++counters_.relocalisations;
   report->relocalised = true;
@@ -256,6 +263,9 @@ void Recovery::rememberPose(const ScanReport& report) {
   if (lost_) {
     if (lost_path_.size() >= kMaxLostPath) lost_path_.pop_front();
     lost_path_.push_back({report.scan, report.stamp, motion_.pose()});
+    // Only what was not applied: the scan that made the rule fire was tracked.
+    if (report.lost && config_.lost_map_scans)
+      seen_while_lost_.add(report.scan, motion_.pose(), report.observations);
     return;
   }
   tracked_.push_back({report.scan, report.stamp, book_.informativeScans(), motion_.pose(),

@@ -3,8 +3,10 @@
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 #include <utility>
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/common/stopwatch.h"
 
 #include "ekf_slam/core/feature_extraction/scan_geometry.h"
@@ -215,7 +217,10 @@ void SlamPipeline::relocaliseLost(ScanReport* report) {
     applyFix(*fix, report);
     return;
   }
-  if (resumed) monitor_.resume();
+  if (resumed) {
+    report->lost_timeout = true;
+    monitor_.resume();
+  }
   recovery_.rememberPose(*report);
 }
 
@@ -242,11 +247,10 @@ bool SlamPipeline::kidnapRefused(ScanReport* report) {
     }
     return true;
   }
-  if (Recovery::usable(report->relocalisation, report->observations.size())) {
-    monitor_.refusalAnswered();  // the relocaliser agrees with the estimate: applied as associated
-  } else {
-    LostMonitor::suppressNew(&report->association, &counters_);  // no answer: the doubt stays
-  }
+  // The relocaliser agrees with the estimate: the streak ends. No answer: the streak goes on.
+  // Either way the scan is applied as associated (a probe that finds no kidnap changes nothing).
+  if (Recovery::usable(report->relocalisation, report->observations.size()))
+    monitor_.refusalAnswered();
   return false;
 }
 
@@ -255,9 +259,15 @@ void SlamPipeline::checkLost(ScanReport* report) {
     case LostMonitor::Verdict::kLost:
       goLost(report);
       break;
-    case LostMonitor::Verdict::kProbe:
+    case LostMonitor::Verdict::kProbe: {
+      // The rule that asked (rule 2), if any: named with the relocaliser's answer when lost.
+      const std::string rule = std::move(report->lost_reason);
+      report->lost_reason.clear();
       probe(report);
+      if (report->became_lost && !rule.empty())
+        report->lost_reason = rule + "; " + report->lost_reason;
       break;
+    }
     case LostMonitor::Verdict::kTracking:
       break;
   }
@@ -265,8 +275,9 @@ void SlamPipeline::checkLost(ScanReport* report) {
 
 void SlamPipeline::probe(ScanReport* report) {
   // The established map only: recent landmarks would explain the scan at the filter's (perhaps
-  // wrong) pose.
-  std::vector<MapLandmark> map = mapLandmarks();
+  // wrong) pose. Read without a global update (filter cekf: the landmarks outside the active area
+  // as of the last one), so that a probe that finds nothing leaves the filter as it was.
+  std::vector<MapLandmark> map = ekf_slam::mapLandmarks(activeEkf(), book_);
   map.erase(std::remove_if(map.begin(), map.end(),
                            [this](const MapLandmark& l) { return book_.recent(l.id, scans_); }),
             map.end());
@@ -314,13 +325,45 @@ void SlamPipeline::applyFix(const RelocalisationResult& fix, ScanReport* report)
   const Eigen::Vector3d dead_reckoned = pose();
   ekf.replacePose(fix.pose, kRelocalisedPriorInflation * fix.covariance);
   // A window's older pairings join the update.
-  mapper_.apply(*associator_, recovery_.takeWindowPairings(), report);
+  const std::vector<Pairing> window = recovery_.takeWindowPairings();
+  mapper_.apply(*associator_, window, report);
   if (!report->update_ok) {
     filter_.flush();
     ekf.replacePose(fix.pose, fix.covariance);  // uncorrelated, still valid
   }
+  report->fix_pairings = static_cast<int>(window.size());
+  for (const Decision d : a.decision) report->fix_pairings += d == Decision::kPaired;
+  report->fix_correction = pose() - dead_reckoned;
+  report->fix_correction.z() = wrapAngle(report->fix_correction.z());
+  const LostScans lost = recovery_.takeLostScans();
   recovery_.fixed(dead_reckoned, report);
+  if (report->update_ok) mapSeenWhileLost(lost, dead_reckoned, report);
   monitor_.resume();
+}
+
+void SlamPipeline::mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d& dead_reckoned,
+                                    ScanReport* report) {
+  // Localization mode: the map stays as loaded.
+  if (lost.empty() || mapFrozen()) return;
+  // The whole state: the lost scans may lie anywhere in the map (filter cekf starts again).
+  filter_.flush();
+  EkfSlam& ekf = filter_.ekf();
+  LostMappingParams params;
+  params.pair_probability = config_.lost_map_pair_probability;
+  params.new_probability = config_.lost_map_new_probability;
+  params.min_sightings = config_.lost_map_min_sightings;
+  const LostScanMapping m = mapLostScans(ekf, model_, lost, dead_reckoned, params);
+  filter_.restart();
+  for (const LandmarkId id : m.paired) book_.paired(id, std::nan(""));
+  for (std::size_t j = 0; j < m.created.size(); ++j) {
+    book_.created(m.created[j], m.descriptors[j], report->scan);
+    for (std::uint32_t k = 1; k < m.sightings[j]; ++k) book_.paired(m.created[j], std::nan(""));
+    // The associator takes them as landmarks seen this often (DJNN: established).
+    associator_->landmarkLoaded(m.created[j], m.sightings[j]);
+  }
+  index_.sync(ekf);
+  report->lost_map_landmarks = static_cast<int>(m.created.size());
+  report->lost_map_pairings = static_cast<int>(m.paired.size());
 }
 
 // --- state ---------------------------------------------------------------------------------------

@@ -542,7 +542,11 @@ void EkfSlamNode::publish(const ScanReport& report) {
     correction_pub_.publish(msg);
   }
 
-  if (config_.publish_tf) {
+  if (config_.publish_tf && pipeline_->lost() && have_map_odom_ && !config_.publish_map_to_base) {
+    // Lost: the estimate is dead reckoning from a pose in doubt. map -> odom stays where it was
+    // (odom -> base carries the motion, as the filter's prediction does) until a fix moves it.
+    map_base_pending_ = false;
+  } else if (config_.publish_tf) {
     map_base_ = pose;
     map_base_stamp_ = stamp;
     map_base_since_ = ros::WallTime::now();

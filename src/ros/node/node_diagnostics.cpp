@@ -98,8 +98,10 @@ void EkfSlamNode::onDiagnosticsTimer(const ros::WallTimerEvent&) {
   proc.hardware_id = hw;
   const double mean_latency = latency_count_ ? latency_sum_ / latency_count_ : 0.0;
   proc.level = diagnostic_msgs::DiagnosticStatus::OK;
-  proc.message = std::string(pipeline_->lost() ? "LOST (relocalising)" : "tracking") + ", " +
-                 std::to_string(pipeline_->ekf().numLandmarks()) + " landmarks";
+  proc.message =
+      (pipeline_->lost() ? "LOST since scan " + std::to_string(lost_since_scan_) + " (relocalising)"
+                         : std::string("tracking")) +
+      ", " + std::to_string(pipeline_->ekf().numLandmarks()) + " landmarks";
   if (pipeline_->lost()) proc.level = diagnostic_msgs::DiagnosticStatus::WARN;
   if (c.rejected_updates > 0 || c.rejected_odometry > 0) {
     proc.level = diagnostic_msgs::DiagnosticStatus::WARN;

@@ -1,4 +1,6 @@
 // The node's services (~reset, ~relocalise, ~save_map, ~load_map) and its recovery log.
+#include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "ekf_slam/ros/node/ekf_slam_node.h"
@@ -15,23 +17,44 @@ bool EkfSlamNode::resetService(std_srvs::Empty::Request&, std_srvs::Empty::Respo
 
 bool EkfSlamNode::relocaliseService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   res.success = pipeline_->requestRelocalisation();
+  if (res.success) lost_since_scan_ = static_cast<std::uint32_t>(pipeline_->counters().scans);
   res.message = res.success ? "lost on request: the next scans are relocalised with " +
                                   pipeline_config_.relocaliser
-                            : "no relocaliser configured (parameter ~relocaliser)";
+                            : "recovery is off (parameter ~relocaliser is \"\")";
   ROS_INFO("ekf_slam: ~relocalise: %s", res.message.c_str());
   return true;
 }
 
 void EkfSlamNode::reportRecovery(const ScanReport& report) {
+  // Once per event: going lost, and its end (a fix or the timeout); nothing per scan between.
   if (report.became_lost) {
-    ROS_WARN("ekf_slam: lost at scan %u (%s): map frozen, relocalising with %s", report.scan,
-             report.lost_reason.c_str(), pipeline_config_.relocaliser.c_str());
+    lost_since_scan_ = report.scan;
+    const Eigen::Matrix3d P = pipeline_->poseCovariance();
+    ROS_WARN(
+        "ekf_slam: LOST at scan %u (%s): map frozen, relocalising with %s; the pose is dead "
+        "reckoned from here (position sd %.2f m, growing with the odometry)",
+        report.scan, report.lost_reason.c_str(), pipeline_config_.relocaliser.c_str(),
+        std::sqrt(std::max(0.0, P(0, 0) + P(1, 1))));
   }
   if (report.relocalised) {
     const Eigen::Vector3d p = pipeline_->pose();
-    ROS_INFO("ekf_slam: relocalised at scan %u: pose (%.2f, %.2f, %.3f rad), %d pairings",
-             report.scan, p.x(), p.y(), p.z(), report.relocalisation.hypothesis_size);
+    const Eigen::Vector3d& d = report.fix_correction;
+    ROS_INFO(
+        "ekf_slam: relocalised at scan %u after %u scans lost (since scan %u): correction %.2f m, "
+        "%.3f rad, %d pairings used (%d in the relocaliser's hypothesis); pose (%.2f, %.2f, "
+        "%.3f rad); from what the lost scans saw: %d landmarks mapped, %d pairings",
+        report.scan, report.lost_scans, lost_since_scan_, d.head<2>().norm(), d.z(),
+        report.fix_pairings, report.relocalisation.hypothesis_size, p.x(), p.y(), p.z(),
+        report.lost_map_landmarks, report.lost_map_pairings);
   }
+  if (report.lost_timeout) {
+    ROS_WARN("ekf_slam: no relocalisation at scan %u (lost since scan %u): %s", report.scan,
+             lost_since_scan_, report.lost_reason.c_str());
+  }
+  // /diagnostics says so at once, not at the next period (a fix may come sooner).
+  if ((report.became_lost || report.relocalised || report.lost_timeout) &&
+      config_.diagnostics_period > 0.0)
+    onDiagnosticsTimer(ros::WallTimerEvent());
 }
 
 bool EkfSlamNode::saveMapService(SaveMap::Request& req, SaveMap::Response& res) {
@@ -64,6 +87,7 @@ bool EkfSlamNode::loadMapService(LoadMap::Request& req, LoadMap::Response& res) 
   }
   try {
     pipeline_->loadMap(path, req.reset_pose, req.unknown_pose);
+    lost_since_scan_ = static_cast<std::uint32_t>(pipeline_->counters().scans);
     res.success = true;
     res.message =
         "loaded " + std::to_string(pipeline_->ekf().numLandmarks()) + " landmarks from " + path;

@@ -390,6 +390,24 @@ OfflineSummary writeOfflineReport(const OfflineOptions& o, const BagContents& ba
                       {"time_us", e.time_us}});
   }
   j["relocalisation_events"] = events;
+  // Each lost event (only when there was one: a run that never gets lost writes what it did
+  // without recovery, docs/relocalisation.md).
+  if (!record.lost_events.empty()) {
+    nlohmann::json lost = nlohmann::json::array();
+    for (const LostEvent& e : record.lost_events) {
+      lost.push_back({{"scan", e.scan},
+                      {"stamp", e.stamp},
+                      {"reason", e.reason},
+                      {"end", e.end},
+                      {"end_scan", e.end_scan},
+                      {"end_stamp", e.end_stamp},
+                      {"scans_lost", e.scans_lost},
+                      {"correction_m", number(e.correction.head<2>().norm())},
+                      {"correction_rad", number(e.correction.z())},
+                      {"pairings", e.pairings}});
+    }
+    j["lost_event_list"] = lost;
+  }
   if (o.smooth)
     j["smoothing"] =
         writeSmoothed(o.out_dir, pipeline, record.smoothing, bag.gps, bag.ground_truth, log);

@@ -106,7 +106,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   for (const OfflineOptions::Override& v : o.overrides)
     configuration.setOverride(v.section, v.name, v.value);
   if (!o.associator.empty()) configuration.setOverride("", "associator", o.associator);
-  if (!o.relocaliser.empty()) configuration.setOverride("", "relocaliser", o.relocaliser);
+  if (o.relocaliser) configuration.setOverride("", "relocaliser", *o.relocaliser);
   PipelineParts parts = buildPipeline(configuration, PluginlibFactory());
   const PipelineConfig& config = parts.config;
   const std::string short_name = pluginShortName(parts.associator_name);
@@ -121,7 +121,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   if (o.unknown_pose && o.load_map.empty())
     throw std::runtime_error("--unknown-pose needs --load-map FILE");
   if (o.unknown_pose && !parts.relocaliser)
-    throw std::runtime_error("--unknown-pose needs a relocaliser (--relocaliser NAME)");
+    throw std::runtime_error("--unknown-pose needs a relocaliser (it is off: --relocaliser NAME)");
   if (o.smooth && !o.load_map.empty())
     throw std::runtime_error(
         "--smooth cannot be used with --load-map (the smoother has no prior "
@@ -301,8 +301,9 @@ void printOfflineUsage(std::ostream& out, const std::string& program) {
       << ")\n"
          "  SCAN: 0-based scan whose association problem goes to DIR/problem_SCAN.json\n"
          "        (replay it with replay_association)\n"
-         "  --relocaliser  e.g. FGCBB: lost-robot recovery (default: the YAML's 'relocaliser',\n"
-         "        else off); its parameters come from its section of the YAML\n"
+         "  --relocaliser  e.g. FGCBB: lost-robot recovery; \"\" turns it off (default: the\n"
+         "        YAML's 'relocaliser', else FGCBB, RRWSC with the RRWSC associator); its\n"
+         "        parameters come from its section of the YAML\n"
          "  --load-map     a map.txt (~save_map format) to start from; --unknown-pose: the pose\n"
          "        in it is unknown, the run starts lost and relocalises globally\n"
          "  --kidnap       before 0-based scan SCAN, jump the pose estimate by DX,DY [m] (map\n"
@@ -347,7 +348,6 @@ bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions*
                           : a == "--out"                ? &o->out_dir
                           : a == "--params"             ? &o->params_path
                           : a == "--associator"         ? &o->associator
-                          : a == "--relocaliser"        ? &o->relocaliser
                           : a == "--load-map"           ? &o->load_map
                           : a == "--scan-topic"         ? &o->scan_topic
                           : a == "--odom-topic"         ? &o->odom_topic
@@ -360,7 +360,8 @@ bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions*
                                                         : nullptr;
     const bool dump = a == "--dump-problem";
     const bool kidnap = a == "--kidnap";
-    if (target == nullptr && !dump && !kidnap) {
+    const bool relocaliser = a == "--relocaliser";  // "" is a value: off
+    if (target == nullptr && !dump && !kidnap && !relocaliser) {
       *error = "unknown argument '" + a + "'";
       return false;
     }
@@ -369,6 +370,10 @@ bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions*
       return false;
     }
     const std::string& v = args[++i];
+    if (relocaliser) {
+      o->relocaliser = v;
+      continue;
+    }
     if (kidnap) {
       OfflineOptions::Kidnap k;
       unsigned long scan = 0;

@@ -47,6 +47,23 @@ void RunRecord::add(const ScanReport& r, const SlamPipeline& pipeline,
   if (r.became_lost) {
     log_ << "lost at scan " << r.scan << " (stamp " << std::fixed << r.stamp << std::defaultfloat
          << "): " << r.lost_reason << "\n";
+    LostEvent e;
+    e.scan = r.scan;
+    e.stamp = r.stamp;
+    e.reason = r.lost_reason;
+    lost_events.push_back(e);
+  }
+  if (r.relocalised || r.lost_timeout) {
+    // A run started lost (--unknown-pose) has no lost rule firing: its event opens here.
+    if (lost_events.empty() || lost_events.back().end != "lost at end")
+      lost_events.push_back({r.scan, r.stamp, "started lost"});
+    LostEvent& e = lost_events.back();
+    e.end = r.relocalised ? "relocalised" : "timeout";
+    e.end_scan = r.scan;
+    e.end_stamp = r.stamp;
+    e.scans_lost = r.relocalised ? r.lost_scans : r.scan - e.scan;
+    e.correction = r.fix_correction;
+    e.pairings = r.fix_pairings;
   }
   if (r.lost && !pipeline.lost() && !r.relocalised)
     log_ << "scan " << r.scan << ": " << r.lost_reason << "\n";
@@ -55,7 +72,10 @@ void RunRecord::add(const ScanReport& r, const SlamPipeline& pipeline,
     if (r.relocalised) {
       const RelocalisationResult& x = r.relocalisation;
       log_ << "relocalised at scan " << r.scan << ": pose " << x.pose.transpose() << ", "
-           << x.hypothesis_size << " pairings\n";
+           << x.hypothesis_size << " pairings; correction " << r.fix_correction.head<2>().norm()
+           << " m, " << r.fix_correction.z() << " rad, " << r.fix_pairings
+           << " pairings in the update; from the lost scans " << r.lost_map_landmarks
+           << " landmarks mapped, " << r.lost_map_pairings << " pairings\n";
       relocalisations.push_back({r.scan, r.stamp, x.pose, x.hypothesis_size, x.joint_mahalanobis,
                                  x.nodes, 1e6 * r.relocalisation_s});
     }

@@ -43,6 +43,10 @@ struct SensorModel {
 /// `clutter_density`, defaulting to `defaults`; validates it.
 SensorModel readSensorModel(const ParameterReader& r, const SensorModel& defaults = SensorModel());
 
+/// What is wrong with a region's polygon: "needs at least 3 vertices", "has no area", "must be
+/// convex"; "" when it is a convex polygon.
+std::string polygonProblem(const std::vector<Eigen::Vector2d>& polygon);
+
 /// Parses "x1,y1; x2,y2; ..." (at least 3 vertices; empty text = no polygon). Throws
 /// std::invalid_argument on bad syntax.
 std::vector<Eigen::Vector2d> parsePolygon(const std::string& text);

@@ -217,6 +217,11 @@ class EkfSlam {
   int cloneRow(CloneId id) const;
   Eigen::Vector3d clonePose(CloneId id) const;
 
+  /// The pose becomes the clone's (mean, covariance, every cross-covariance) and the clone is
+  /// removed: the current pose is marginalised out, e.g. after the pose was carried elsewhere to
+  /// process older scans. O(n). False if the id is unknown.
+  bool restorePose(CloneId id);
+
   /// Moves the pose estimate without touching any covariance: an unmodelled jump (a kidnap).
   void setPose(const Eigen::Vector3d& pose) {
     x_.head<3>() = pose;

@@ -16,6 +16,7 @@
 #include <utility>
 
 #include "ekf_slam/core/common/chi2.h"
+#include "ekf_slam/core/common/sensor_model.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/landmark_index.h"
 #include "ekf_slam/core/filter/observation_model.h"
@@ -61,6 +62,7 @@ class LostMonitor {
   const RangeBearingModel& model_;
   const LandmarkBook& book_;
   Chi2Table nis_chi2_;
+  SensorModel view_;  // lost_view_polygon, for "in view"
   int unpaired_streak_ = 0;
   int nis_streak_ = 0;
   int refused_streak_ = 0;

@@ -6,15 +6,22 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
 #include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/common/sensor_model.h"
 #include "ekf_slam/core/feature_extraction/tree_extractor.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/filter/odometry_correction.h"
 
 namespace ekf_slam {
+
+/// The relocaliser used when the configuration names none: it measured best with no wrong fix
+/// (docs/relocalisation.md). The pipeline builder gives an associator with a relocaliser of its
+/// own that one instead (defaultRelocaliserFor, app/pipeline_builder.h).
+constexpr const char* kDefaultRelocaliser = "ekf_slam/FGCBB";
 
 /// Every setting of the pipeline. The ROS side fills it from parameters (one place), the offline
 /// runner from the same YAML; defaults here are the documented defaults.
@@ -58,7 +65,8 @@ struct PipelineConfig {
 
   /// Lost-robot recovery (docs/relocalisation.md). The shells load the plugin named here and
   /// hand it over with SlamPipeline::setRelocaliser; empty: off (the filter never goes lost).
-  std::string relocaliser;
+  /// On by default; the builder puts the associator's own relocaliser here when unset.
+  std::string relocaliser = kDefaultRelocaliser;
   /// Lost rule 1: this many consecutive scans with >= lost_min_observations observations, yet
   /// not one paired with an established (not recent) landmark, and >= lost_min_expected map
   /// landmarks in view (within lost_view_range of the sensor, 0 = max_observation_range, and inside
@@ -68,9 +76,11 @@ struct PipelineConfig {
   int lost_min_observations = 3;
   int lost_min_expected = 3;
   /// Rule 1 counts a scan as unpaired when fewer established landmarks were paired than this
-  /// share of those in view (0: when none was, the rule as first written). A sensor that sees
-  /// most of what is in view (P_D near 1) can set about half its P_D: a kidnapped filter that
-  /// sees many landmarks pairs a few by chance, which resets the count when the share is 0.
+  /// share of those in view (0: when none was, the rule as first written), and than this share
+  /// of its observations. A sensor that sees most of what is in view (P_D near 1) can set about
+  /// half its P_D: a kidnapped filter that sees many landmarks pairs a few by chance, which
+  /// resets the count when the share is 0. The observations' share keeps a filter that explains
+  /// what it sees from counting stale landmarks (movers an associator mapped) as missed.
   double lost_min_paired_share = 0.0;
   /// Landmarks created fewer than this many scans ago are "recent": pairing them does not count
   /// for rule 1, they are not "in view", and they are discarded when the pipeline goes lost.
@@ -81,6 +91,10 @@ struct PipelineConfig {
   bool lost_recent_informative = false;
   double lost_view_range = 0.0;
   double lost_field_of_view = M_PI;
+  /// "In view" also inside this convex polygon in the sensor frame (a camera's footprint, the
+  /// trapezoid of a downward camera); empty: the range and the wedge alone. Parameter text
+  /// "x1,y1; x2,y2; ..." (parsePolygon).
+  std::vector<Eigen::Vector2d> lost_view_polygon;
   /// Lost rule 2: this many consecutive scans whose batch NIS exceeds chi2(2k,
   /// lost_nis_probability) (k paired observations). 0 disables the rule.
   int lost_nis_scans = 5;
@@ -127,6 +141,15 @@ struct PipelineConfig {
   /// covariance (docs/relocalisation.md, "A window of scans"); a fix confirms a held one only if
   /// their windows share no scan. 1: the current scan alone.
   int relocalisation_window_scans = 1;
+  /// At a fix, the scans processed while lost are carried back from the fixed pose by their
+  /// odometry, associated by a gate of their own (pair within chi2(2, lost_map_pair_probability)
+  /// of exactly one landmark; new outside chi2(2, lost_map_new_probability) of all) and update
+  /// the map; a new landmark stays when seen in lost_map_min_sightings of them
+  /// (docs/relocalisation.md, "Nothing seen while lost is thrown away"). false: they are dropped.
+  bool lost_map_scans = true;
+  double lost_map_pair_probability = 0.99;
+  double lost_map_new_probability = 0.9999;
+  int lost_map_min_sightings = 3;
   double lost_nis_probability = 0.999;
 
   /// The filter: "ekf" (every step on the whole state) or "cekf", the compressed EKF

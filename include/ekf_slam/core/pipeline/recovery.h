@@ -20,6 +20,7 @@
 #include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/filter/scan_window.h"
 #include "ekf_slam/core/pipeline/landmark_book.h"
+#include "ekf_slam/core/pipeline/lost_scans.h"
 #include "ekf_slam/core/pipeline/motion_predictor.h"
 #include "ekf_slam/core/pipeline/pipeline_config.h"
 #include "ekf_slam/core/pipeline/scan_report.h"
@@ -57,6 +58,15 @@ class Recovery {
   /// Whether fix `r` of the last relocaliser call is confirmed (else it is held, counted, and
   /// the report says so).
   bool confirm(const RelocalisationResult& r, ScanReport* report);
+  /// The scans processed lost since going lost, with the odometry to now (moved out: at a fix,
+  /// for mapping what they saw).
+  /// The scans the last relocaliser call used (the fix's update paired them) are left out.
+  LostScans takeLostScans() {
+    seen_while_lost_.dropFrom(window_first_scan_);
+    LostScans out = std::move(seen_while_lost_);
+    seen_while_lost_.clear();
+    return out;
+  }
   /// A window's older pairings, carried into the current scan, for the fix's update.
   std::vector<Pairing> takeWindowPairings();
   /// The pipeline applied a fix (the pose was `dead_reckoned` before): tracking resumes, and
@@ -117,7 +127,8 @@ class Recovery {
   std::shared_ptr<Relocaliser> relocaliser_;
   bool lost_ = false;
   bool pose_unknown_ = false;
-  int lost_scans_ = 0;  // relocalisation attempts since lost
+  int lost_scans_ = 0;            // relocalisation attempts since lost
+  std::uint32_t scans_lost_ = 0;  // scans processed lost since going lost (for the report)
   // Oldest first, at most relocalisation_held_fixes.
   std::vector<HeldFix> held_;
   // relocalisation_window_scans > 1: the scans since going lost; the carried observations the
@@ -128,6 +139,8 @@ class Recovery {
   // The dead-reckoned pose of each scan since going lost (at most kMaxLostPath, the newest).
   std::deque<LostPathPose> lost_path_;
   std::deque<TrackedPose> tracked_;
+  // lost_map_scans: what the scans processed lost saw (LostScans).
+  LostScans seen_while_lost_;
 };
 
 }  // namespace ekf_slam

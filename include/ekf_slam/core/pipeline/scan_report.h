@@ -92,7 +92,19 @@ struct ScanReport {
   bool became_lost = false;  ///< the lost rule fired after this scan (map frozen from now on)
   std::string lost_reason;   ///< which rule, for logs
   bool relocalisation_attempted = false;
-  bool relocalised = false;             ///< found: pose replaced, paired, tracking resumes
+  bool relocalised = false;  ///< found: pose replaced, paired, tracking resumes
+  /// At a relocalisation: the pose after the fix's update minus the estimate before it (x, y,
+  /// yaw wrapped), the observations paired in that update (the window's included), and the scans
+  /// processed lost before it; for the user's log (docs/relocalisation.md, "Telling the user").
+  Eigen::Vector3d fix_correction = Eigen::Vector3d::Zero();
+  int fix_pairings = 0;
+  std::uint32_t lost_scans = 0;
+  /// At a relocalisation with lost_map_scans: landmarks mapped from what the lost scans saw, and
+  /// their pairings with landmarks mapped before.
+  int lost_map_landmarks = 0;
+  int lost_map_pairings = 0;
+  /// lost_max_scans reached at this scan: tracking resumed from the dead-reckoned estimate.
+  bool lost_timeout = false;
   RelocalisationResult relocalisation;  ///< of the attempt
   double relocalisation_s = 0.0;        ///< wall time of the relocaliser call
   int landmarks_expected = 0;           ///< map landmarks in view (lost rule 1), when tracking

@@ -190,6 +190,9 @@ class SlamPipeline {
   /// Replaces the pose with a relocaliser's fix and updates with its pairings
   /// (docs/relocalisation.md); the scans processed while lost get their re-derived poses.
   void applyFix(const RelocalisationResult& fix, ScanReport* report);
+  /// After a fix: maps what the scans processed lost saw (lost_map_scans; LostScans).
+  void mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d& dead_reckoned,
+                        ScanReport* report);
 
   PipelineConfig config_;
   std::shared_ptr<DataAssociation> associator_;

@@ -25,10 +25,10 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/core/common/sensor_model.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/filter/observation_model.h"
-#include "ekf_slam/core/common/sensor_model.h"
 
 namespace ekf_slam {
 namespace sim {
@@ -163,6 +163,10 @@ struct World {
   /// The filter should use the odometry poses' increments (pipeline odometry_mode pose_delta)
   /// rather than the twist.
   bool pose_delta_odometry = false;
+  /// A relocaliser can tell its places apart (landmark geometry differs from place to place).
+  /// false (a user who laid the markers out in a repeating pattern knows it): lost-robot
+  /// recovery is off in the world's parameters (docs/relocalisation.md, "Known limits").
+  bool recognisable_places = true;
   std::uint64_t default_seed = 1;  ///< the paper's seed where it gives one
 
   /// Throws std::invalid_argument naming the first bad field.

@@ -179,7 +179,8 @@ class EkfSlamNode {
   ros::WallTime map_base_since_;
   bool have_map_odom_ = false;
   Eigen::Vector3d map_odom_ = Eigen::Vector3d::Zero();
-  ros::Time last_tf_stamp_;  ///< newest map transform sent (stamps must increase)
+  ros::Time last_tf_stamp_;            ///< newest map transform sent (stamps must increase)
+  std::uint32_t lost_since_scan_ = 0;  ///< the scan of the last lost event (for logs)
   // odom -> base_frame as last broadcast from an odometry message (publish_odom_tf), held after
   // the odometry stops with hold_odom_tf.
   bool have_odom_tf_ = false;

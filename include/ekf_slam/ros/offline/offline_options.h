@@ -27,9 +27,9 @@ struct OfflineOptions {
   std::vector<Override> overrides;
   /// Plugin name ("DJNN" or "ekf_slam/DJNN"); empty: the YAML's `associator`, else the default.
   std::string associator;
-  /// Relocaliser plugin ("FGCBB" or "ekf_slam/FGCBB"); empty: the YAML's `relocaliser`, else
-  /// none (recovery off).
-  std::string relocaliser;
+  /// Relocaliser plugin ("FGCBB" or "ekf_slam/FGCBB"), "" for none (recovery off); unset: the
+  /// YAML's `relocaliser`, else the associator's (defaultRelocaliserFor: FGCBB, RRWSC for RRWSC).
+  std::optional<std::string> relocaliser;
   /// A map file (~save_map format) loaded before the first scan; empty: start with no map.
   std::string load_map;
   /// With load_map: the pose in that map is unknown, the run starts lost (needs a relocaliser).

@@ -59,6 +59,19 @@ struct RelocalisationEvent {
   double time_us;
 };
 
+// One lost event, from going lost to its end (metrics.json lost_event_list).
+struct LostEvent {
+  std::uint32_t scan = 0;  // went lost after it (a forced start: the first scan processed lost)
+  double stamp = 0.0;
+  std::string reason;
+  std::string end = "lost at end";  // "relocalised", "timeout" or "lost at end"
+  std::uint32_t end_scan = 0;
+  double end_stamp = 0.0;
+  std::uint32_t scans_lost = 0;                          // processed lost until the end
+  Eigen::Vector3d correction = Eigen::Vector3d::Zero();  // relocalised: fix minus estimate
+  int pairings = 0;                                      // relocalised: paired in the fix
+};
+
 /// Stamps in full: epoch stamps (1.2e9 s) need 10 digits before the point and 9 after.
 std::string stampText(double stamp);
 
@@ -82,6 +95,7 @@ class RunRecord {
   SmoothingRecorder smoothing;  ///< --smooth: what the batch smoother needs, scan by scan
   std::vector<double> association_us, update_us, relocalisation_us;
   std::vector<RelocalisationEvent> relocalisations;
+  std::vector<LostEvent> lost_events;
   double extraction_s = 0.0, association_s = 0.0, update_s = 0.0;
   std::uint32_t scans = 0;
   /// A simulated bag: scored against its truth (score_scans: laser scans, truth by proximity).

@@ -55,7 +55,7 @@ try_space() {  # try_space SPACE: the package's tools and files from that space
     source "$ws/$1/setup.bash"
     set -x
     rospack find ekf_slam
-    rosrun ekf_slam simulate --list | head -3
+    rosrun ekf_slam simulate --list | sed -n 1,3p  # sed reads it all: no SIGPIPE under pipefail
     rosrun ekf_slam simulate --world tiny --seed 1 --out "$ws/tiny_$1.bag" | tail -1
     rosrun ekf_slam ekf_slam_offline --bag "$ws/tiny_$1.bag" --params "$ws/tiny_$1.yaml" \
       --out "$ws/out_$1" --no-plot --no-progress | tail -2

@@ -56,7 +56,6 @@ add_library(ekf_slam_core
   src/core/graph_matching/rrwsc_matcher.cpp
   # relocalisation: the interface, FGCBB / GCBB, RRW&SC
   src/core/relocalisation/relocaliser.cpp
-  src/core/filter/scan_window.cpp
   src/core/relocalisation/geometric_constraints.cpp
   src/core/relocalisation/geometric_constraint_bb.cpp
   src/core/relocalisation/fgcbb.cpp
@@ -75,9 +74,9 @@ add_library(ekf_slam_core
   src/core/pipeline/recovery.cpp
   src/core/pipeline/map_file.cpp
   src/core/pipeline/slam_pipeline.cpp
-  # smoothing: the batch smoother of a finished run, and the noise calibration built on it
+  # smoothing: the batch smoother of a finished run and its recorder (noise calibration, built on
+  # them, is in ekf_slam_tools)
   src/core/smoothing/batch_smoother.cpp
-  src/core/smoothing/smoothing_recorder.cpp
-  src/core/smoothing/noise_calibration.cpp)
+  src/core/smoothing/smoothing_recorder.cpp)
 target_include_directories(ekf_slam_core PUBLIC include)
 target_link_libraries(ekf_slam_core PUBLIC Eigen3::Eigen)

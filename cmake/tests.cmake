@@ -59,9 +59,10 @@ ekf_slam_test(test_replay_association LIBS ekf_slam_app PROGRAMS replay_associat
 
 # The ROS shell.
 foreach(t test_conversions test_victoria_park test_plugins test_extractor_plugins
-          test_rrwsc_relocaliser_plugin test_gps_track)
+          test_rrwsc_relocaliser_plugin)
   ekf_slam_test(${t} LIBS ekf_slam_ros)
 endforeach()
+ekf_slam_test(test_gps_track LIBS ekf_slam_gps_track)
 ekf_slam_test(test_ros_parameter_source ROSTEST ros_parameter_source LIBS ekf_slam_ros)
 ekf_slam_test(test_play_bag ROSTEST play_bag LIBS ekf_slam_ros)
 foreach(t test_ekf_reference test_bag_faults)

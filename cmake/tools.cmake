@@ -2,7 +2,10 @@
 # (`simulate`), Monte Carlo evaluation of the associators (`evaluate`), the relocalisation
 # experiment on a bag (`relocalisation_experiment`), noise calibration from a bag
 # (`calibrate_noise`).
+# Noise calibration (ROS-free, core/smoothing) is linked here, not in ekf_slam_core: only
+# calibrate_noise uses it.
 add_library(ekf_slam_tools
+  src/core/smoothing/noise_calibration.cpp
   src/tools/simulation_bag.cpp
   src/tools/evaluate.cpp
   src/tools/relocalisation_experiment.cpp

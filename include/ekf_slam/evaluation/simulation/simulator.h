@@ -29,17 +29,10 @@
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/filter/observation_model.h"
+#include "ekf_slam/evaluation/scoring/truth_ids.h"
 
 namespace ekf_slam {
 namespace sim {
-
-// --- ground-truth ids ---------------------------------------------------------------------------
-// Static landmark k has truth id k (>= 0). Moving object k has id moverId(k) = -1 - k. Clutter
-// returns get distinct ids kClutterIdBase, kClutterIdBase - 1, ... (far below any mover id).
-inline LandmarkId moverId(int k) { return -1 - static_cast<LandmarkId>(k); }
-constexpr LandmarkId kClutterIdBase = -1000000000;
-inline bool isStaticLandmark(LandmarkId truth) { return truth >= 0; }
-inline bool isClutter(LandmarkId truth) { return truth <= kClutterIdBase; }
 
 /// Deterministic random numbers: mt19937_64 plus portable transforms.
 class Random {

@@ -15,7 +15,7 @@
 
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
 #include "ekf_slam/core/smoothing/smoothing_recorder.h"
-#include "ekf_slam/evaluation/simulated_run.h"
+#include "ekf_slam/evaluation/scoring/run_scorer.h"
 #include "ekf_slam/ros/offline/bag_input.h"
 #include "ekf_slam/ros/offline/offline_options.h"
 

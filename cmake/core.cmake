@@ -1,8 +1,9 @@
 # ROS-free estimator (Eigen only): include/ekf_slam/core, src/core.
 add_library(ekf_slam_core
-  # common: angles, poses, chi2, parameters, the sensor's region, a coverage grid, assignment,
-  # a track's drawable runs
+  # common: angles, poses, chi2, small-matrix decompositions, parameters, the sensor's region, a
+  # coverage grid, assignment, a track's drawable runs
   src/core/common/chi2.cpp
+  src/core/common/decompositions.cpp
   src/core/common/parameters.cpp
   src/core/common/recording_parameter_source.cpp
   src/core/common/sensor_model.cpp

@@ -4,11 +4,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include <optional>
+
 #include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
-#include <Eigen/LU>
 
 #include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/common/decompositions.h"
 
 namespace ekf_slam {
 
@@ -191,15 +192,15 @@ PoseFit fitPose(const std::vector<PointPairing>& pairings, int iterations) {
     }
     fit.d2 = d2;
     if (it == iterations) break;
-    const Eigen::Vector3d step = -H.ldlt().solve(g);
+    const Eigen::Vector3d step = -ldltSolve(H, g);
     if (!step.allFinite()) return fit;
     t += step.head<2>();
     phi = wrapAngle(phi + step.z());
     if (step.norm() < 1e-10) iterations = it + 1;  // converged: one more pass for H and d2
   }
-  const Eigen::FullPivLU<Eigen::Matrix3d> lu(H);
-  if (!lu.isInvertible()) return fit;
-  fit.covariance = lu.inverse();
+  const std::optional<Eigen::Matrix3d> inverse = fullPivInverse(H);
+  if (!inverse) return fit;
+  fit.covariance = *inverse;
   fit.covariance = 0.5 * (fit.covariance + fit.covariance.transpose()).eval();
   fit.pose = Eigen::Vector3d(t.x(), t.y(), phi);
   fit.ok = fit.pose.allFinite() && fit.covariance.allFinite() && std::isfinite(fit.d2);
@@ -208,9 +209,9 @@ PoseFit fitPose(const std::vector<PointPairing>& pairings, int iterations) {
 
 Eigen::Matrix2d capCovariance(const Eigen::Matrix2d& cov, double sigma) {
   if (sigma <= 0.0 || !cov.allFinite()) return cov;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
-  const Eigen::Vector2d d = eig.eigenvalues().cwiseMin(sigma * sigma);
-  return eig.eigenvectors() * d.asDiagonal() * eig.eigenvectors().transpose();
+  const SymmetricEigen2 eig = symmetricEigen(cov);
+  const Eigen::Vector2d d = eig.values.cwiseMin(sigma * sigma);
+  return eig.vectors * d.asDiagonal() * eig.vectors.transpose();
 }
 
 }  // namespace ekf_slam

@@ -6,12 +6,13 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <optional>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 
 #include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/common/chi2.h"
+#include "ekf_slam/core/common/decompositions.h"
 #include "ekf_slam/core/common/pose2d.h"
 
 namespace ekf_slam {
@@ -134,9 +135,9 @@ void RRWSCRelocaliser::refine(Hypothesis* h, Eigen::Matrix3d* cov) const {
     for (int step = 0; step < 2; ++step) {
       Eigen::Vector3d grad;
       information(*h, pose, &info, &grad);
-      Eigen::FullPivLU<Eigen::Matrix3d> lu(info);
-      if (!lu.isInvertible()) break;
-      pose -= lu.solve(grad);
+      const std::optional<Eigen::Vector3d> delta = fullPivSolve(info, grad);
+      if (!delta) break;
+      pose -= *delta;
     }
     pose.z() = wrapAngle(pose.z());
     score(pose, 0.0, h);
@@ -144,9 +145,8 @@ void RRWSCRelocaliser::refine(Hypothesis* h, Eigen::Matrix3d* cov) const {
   Eigen::Matrix3d info;
   Eigen::Vector3d grad;
   information(*h, h->sensor, &info, &grad);
-  Eigen::FullPivLU<Eigen::Matrix3d> lu(info);
-  *cov = lu.isInvertible() ? Eigen::Matrix3d(lu.inverse())
-                           : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * 1e6);
+  const std::optional<Eigen::Matrix3d> inverse = fullPivInverse(info);
+  *cov = inverse ? *inverse : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * 1e6);
 }
 
 RelocalisationResult RRWSCRelocaliser::relocalise(const std::vector<Observation>& observations,
@@ -166,10 +166,8 @@ RelocalisationResult RRWSCRelocaliser::relocalise(const std::vector<Observation>
     prior_sensor = composePose(prior->mean, sensor_offset);
     double max_range = 0.0;
     for (const Observation& o : observations) max_range = std::max(max_range, o.z.x());
-    const double sigma = std::sqrt(std::max(
-        0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(prior->covariance.topLeftCorner<2, 2>())
-                 .eigenvalues()
-                 .maxCoeff()));
+    const double sigma = std::sqrt(
+        std::max(0.0, symmetricEigen(prior->covariance.topLeftCorner<2, 2>()).values.maxCoeff()));
     const double reach = max_range + 3.0 * sigma + p_.search_margin;
     for (int k = 0; k < static_cast<int>(map_.size()); ++k) {
       if ((map_[k].position - prior_sensor.head<2>()).norm() <= reach) local_.push_back(k);

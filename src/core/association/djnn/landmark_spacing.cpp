@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/Eigenvalues>
+#include "ekf_slam/core/common/decompositions.h"
 
 namespace ekf_slam {
 
@@ -32,10 +32,7 @@ bool LandmarkSpacing::within(const AssociationContext& ctx, int obs,
     const Eigen::Vector2d d = G_obs * ind.v;
     if (d.norm() >= p_.landmark_spacing) continue;
     const Eigen::Matrix2d C = G_obs * ind.S * G_obs.transpose();
-    const double sigma = std::sqrt(
-        std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(C, Eigen::EigenvaluesOnly)
-                          .eigenvalues()
-                          .maxCoeff()));
+    const double sigma = std::sqrt(std::max(0.0, symmetricEigenvalues(C).maxCoeff()));
     if (d.norm() + k * sigma < p_.landmark_spacing) return true;
   }
   return false;

@@ -17,6 +17,9 @@ if command -v ccache > /dev/null; then
   # Without these ccache does not cache a file built with a precompiled header (CMakeLists.txt).
   sloppiness=$(ccache -k sloppiness 2> /dev/null || true)
   export CCACHE_SLOPPINESS=${sloppiness:+$sloppiness,}pch_defines,time_macros
+  # Depend mode: a miss runs no extra preprocessor pass (the compiler's -MD output names the
+  # inputs), so a first build with an empty cache costs about what one without ccache does.
+  [[ -n ${CCACHE_DEPEND:-}${CCACHE_NODEPEND:-} ]] || export CCACHE_DEPEND=1
 fi
 generator=()
 if [[ ! -f $EKF_SLAM_BUILD/CMakeCache.txt ]]; then

@@ -7,7 +7,8 @@ add_library(ekf_slam_app
   src/app/yaml_configuration.cpp
   src/app/scan_filter_yaml.cpp
   src/app/association_problem.cpp
-  src/app/output_files.cpp)
+  src/app/output_files.cpp
+  src/app/command_line.cpp)
 target_include_directories(ekf_slam_app PUBLIC include)
 target_link_libraries(ekf_slam_app PUBLIC ekf_slam_core yaml-cpp
   PRIVATE nlohmann_json::nlohmann_json)

@@ -52,7 +52,7 @@ foreach(t test_slam_pipeline test_delayed_sightings test_scan_geometry test_inpu
 endforeach()
 
 # Assembly: the builder, scan filter files, association problem files.
-foreach(t test_pipeline_builder test_scan_filter_chain test_replay_fuzz)
+foreach(t test_pipeline_builder test_scan_filter_chain test_replay_fuzz test_command_line)
   ekf_slam_test(${t} LIBS ekf_slam_app)
 endforeach()
 ekf_slam_test(test_replay_association LIBS ekf_slam_app PROGRAMS replay_association)

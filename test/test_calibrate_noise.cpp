@@ -139,7 +139,7 @@ TEST(CalibrateNoise, NoiseSharesAddUpToTheCovariance) {
       p.steering_wheelbase = wheelbase;
       p.per_second = per_second;
       const TwistModel model(p);
-      for (const Eigen::Vector2d u : {Eigen::Vector2d(3.0, 0.4), Eigen::Vector2d(0.0, 0.1)}) {
+      for (const Eigen::Vector2d& u : {Eigen::Vector2d(3.0, 0.4), Eigen::Vector2d(0.0, 0.1)}) {
         const MotionStep s = model.step(Eigen::Vector3d(1.0, 2.0, 0.3), u, 0.05);
         EXPECT_TRUE(s.Q.isApprox(s.Q_translation + s.Q_rotation, 1e-12)) << s.Q;
         EXPECT_GT(s.Q_rotation.norm(), 0.0);

@@ -16,6 +16,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "ekf_slam/app/command_line.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/conversions.h"
@@ -253,35 +254,27 @@ void printBagUsage(std::ostream& out, const std::string& program) {
 
 bool parseBagArguments(const std::vector<std::string>& args, BagOptions* options, bool* help,
                        std::string* error) {
-  *help = false;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--help" || a == "-h") {
-      *help = true;
-      return true;
-    }
-    if (a != "--data" && a != "--out" && a != "--start" && a != "--end") {
-      *error = "unknown argument '" + a + "'";
-      return false;
-    }
-    if (i + 1 >= args.size()) {
-      *error = a + " needs a value";
-      return false;
-    }
-    const std::string& value = args[++i];
-    if (a == "--data") {
-      options->data_dir = value;
-    } else if (a == "--out") {
-      options->out_path = value;
-    } else {
+  CommandLine cl(args);
+  std::string value;
+  while (cl.next()) {
+    if (cl.is("--data")) {
+      cl.value(&options->data_dir);
+    } else if (cl.is("--out")) {
+      cl.value(&options->out_path);
+    } else if (cl.is("--start") || cl.is("--end")) {
       double s = 0.0;
+      if (!cl.value(&value)) break;
       if (!parseSeconds(value, &s)) {
-        *error = a + ": '" + value + "' is not a number of seconds";
-        return false;
+        cl.fail(cl.flag() + ": '" + value + "' is not a number of seconds");
+      } else {
+        (cl.is("--start") ? options->start_s : options->end_s) = s;
       }
-      (a == "--start" ? options->start_s : options->end_s) = s;
+    } else {
+      cl.unknown();
     }
   }
+  if (!cl.finish(help, error)) return false;
+  if (*help) return true;
   if (options->out_path.empty()) {
     *error = "--out FILE.bag is required";
     return false;

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "ekf_slam/app/command_line.h"
 #include "ekf_slam/app/output_files.h"
 #include "ekf_slam/core/common/chi2.h"
 #include "ekf_slam/core/smoothing/smoothing_recorder.h"
@@ -328,40 +329,25 @@ void printCalibrateNoiseUsage(std::ostream& out) {
 
 bool parseCalibrateNoiseArguments(const std::vector<std::string>& args, CalibrateNoiseOptions* o,
                                   bool* help, std::string* error) {
-  *help = false;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "-h" || a == "--help") {
-      *help = true;
-      return true;
-    }
-    if (a == "--no-progress") {
+  CommandLine cl(args);
+  std::string v;
+  while (cl.next()) {
+    if (cl.is("--no-progress")) {
       o->progress = false;
-      continue;
-    }
-    if (a != "--bag" && a != "--params" && a != "--out" && a != "--associator" && a != "--set" &&
-        a != "--runs" && a != "--tolerance" && a != "--min-dof") {
-      *error = "unknown argument '" + a + "'";
-      return false;
-    }
-    if (i + 1 >= args.size()) {
-      *error = a + " needs a value";
-      return false;
-    }
-    const std::string& v = args[++i];
-    if (a == "--bag") {
-      o->bag_path = v;
-    } else if (a == "--params") {
-      o->params_path = v;
-    } else if (a == "--out") {
-      o->out_dir = v;
-    } else if (a == "--associator") {
-      o->associator = v;
-    } else if (a == "--set") {
+    } else if (cl.is("--bag")) {
+      cl.value(&o->bag_path);
+    } else if (cl.is("--params")) {
+      cl.value(&o->params_path);
+    } else if (cl.is("--out")) {
+      cl.value(&o->out_dir);
+    } else if (cl.is("--associator")) {
+      cl.value(&o->associator);
+    } else if (cl.is("--set")) {
+      if (!cl.value(&v)) break;
       const std::size_t eq = v.find('=');
       if (eq == std::string::npos || eq == 0) {
-        *error = "--set needs NAME=VALUE or SECTION/NAME=VALUE, got '" + v + "'";
-        return false;
+        cl.fail("--set needs NAME=VALUE or SECTION/NAME=VALUE, got '" + v + "'");
+        break;
       }
       const std::string name = v.substr(0, eq);
       const std::size_t slash = name.find('/');
@@ -370,20 +356,26 @@ bool parseCalibrateNoiseArguments(const std::vector<std::string>& args, Calibrat
                                  : OfflineOptions::Override{name.substr(0, slash),
                                                             name.substr(slash + 1),
                                                             v.substr(eq + 1)});
-    } else {
+    } else if (cl.is("--runs") || cl.is("--tolerance") || cl.is("--min-dof")) {
+      if (!cl.value(&v)) break;
       char* end = nullptr;
       const double x = std::strtod(v.c_str(), &end);
-      const bool integer = a == "--runs";
+      const bool integer = cl.is("--runs");
       if (v.empty() || *end != '\0' || !std::isfinite(x) || x <= 0.0 ||
           (integer && (x != std::floor(x) || x > 1000))) {
-        *error = a + " needs a positive " + (integer ? "integer" : "number") + ", got '" + v + "'";
-        return false;
+        cl.fail(cl.flag() + " needs a positive " + (integer ? "integer" : "number") + ", got '" +
+                v + "'");
+        break;
       }
-      if (a == "--runs") o->max_runs = static_cast<int>(x);
-      if (a == "--tolerance") o->tolerance = x;
-      if (a == "--min-dof") o->min_dof = x;
+      if (cl.is("--runs")) o->max_runs = static_cast<int>(x);
+      if (cl.is("--tolerance")) o->tolerance = x;
+      if (cl.is("--min-dof")) o->min_dof = x;
+    } else {
+      cl.unknown();
     }
   }
+  if (!cl.finish(help, error)) return false;
+  if (*help) return true;
   if (o->bag_path.empty() || o->out_dir.empty()) {
     *error = "--bag and --out are required";
     return false;

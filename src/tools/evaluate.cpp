@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "ekf_slam/app/command_line.h"
 #include "ekf_slam/app/output_files.h"
 #include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/ros/plugin_loader.h"
@@ -591,9 +592,11 @@ void printEvaluateUsage(std::ostream& out) {
 
 bool parseEvaluateArguments(const std::vector<std::string>& args, EvaluateOptions* o, bool* help,
                             std::string* error) {
-  *help = false;
-  const auto number = [&](const std::string& flag, const std::string& v, long long lo,
-                          long long* out) {
+  CommandLine cl(args);
+  std::string v;
+  // The value of an integer flag, at least `lo`.
+  const auto number = [&](long long lo, long long* out) {
+    if (!cl.value(&v)) return false;
     try {
       std::size_t used = 0;
       const long long x = std::stoll(v, &used);
@@ -601,68 +604,53 @@ bool parseEvaluateArguments(const std::vector<std::string>& args, EvaluateOption
       *out = x;
       return true;
     } catch (const std::exception&) {
-      *error = flag + " needs an integer >= " + std::to_string(lo) + ", got '" + v + "'";
-      return false;
+      return cl.fail(cl.flag() + " needs an integer >= " + std::to_string(lo) + ", got '" + v +
+                     "'");
     }
   };
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "-h" || a == "--help") {
-      *help = true;
-      return true;
-    }
-    if (a == "--no-progress") {
+  long long n = 0;
+  while (cl.next()) {
+    if (cl.is("--no-progress")) {
       o->progress = false;
-      continue;
-    }
-    if (a == "--oracle") {
+    } else if (cl.is("--oracle")) {
       o->knowledge = sim::Knowledge::kOracle;
-      continue;
-    }
-    static const std::vector<std::string> with_value = {
-        "--world", "--worlds", "--out", "--runs", "--associators",         "--associator",
-        "--seed",  "--params", "--set", "--jobs", "--odometry-correction", "--relocaliser"};
-    if (std::find(with_value.begin(), with_value.end(), a) == with_value.end()) {
-      *error = "unknown argument '" + a + "'";
-      return false;
-    }
-    if (i + 1 >= args.size()) {
-      *error = a + " needs a value";
-      return false;
-    }
-    const std::string& v = args[++i];
-    long long n = 0;
-    if (a == "--world" || a == "--worlds") {
-      for (const auto& w : splitList(v)) o->worlds.push_back(w);
-    } else if (a == "--out") {
-      o->out_dir = v;
-    } else if (a == "--associators" || a == "--associator") {
-      o->associators = splitList(v);
-    } else if (a == "--params") {
-      o->params_path = v;
-    } else if (a == "--odometry-correction") {
-      o->odometry_correction = v;
-    } else if (a == "--relocaliser") {
-      o->relocaliser = v;
-    } else if (a == "--runs") {
-      if (!number(a, v, 1, &n)) return false;
-      o->runs = static_cast<int>(n);
-    } else if (a == "--jobs") {
-      if (!number(a, v, 1, &n)) return false;
-      o->jobs = static_cast<int>(n);
-    } else if (a == "--seed") {
-      if (!number(a, v, 0, &n)) return false;
-      o->first_seed = static_cast<std::uint64_t>(n);
-      o->first_seed_set = true;
-    } else {  // --set
+    } else if (cl.is("--world") || cl.is("--worlds")) {
+      if (cl.value(&v)) {
+        for (const auto& w : splitList(v)) o->worlds.push_back(w);
+      }
+    } else if (cl.is("--out")) {
+      cl.value(&o->out_dir);
+    } else if (cl.is("--associators") || cl.is("--associator")) {
+      if (cl.value(&v)) o->associators = splitList(v);
+    } else if (cl.is("--params")) {
+      cl.value(&o->params_path);
+    } else if (cl.is("--odometry-correction")) {
+      cl.value(&o->odometry_correction);
+    } else if (cl.is("--relocaliser")) {
+      if (cl.value(&v)) o->relocaliser = v;
+    } else if (cl.is("--runs")) {
+      if (number(1, &n)) o->runs = static_cast<int>(n);
+    } else if (cl.is("--jobs")) {
+      if (number(1, &n)) o->jobs = static_cast<int>(n);
+    } else if (cl.is("--seed")) {
+      if (number(0, &n)) {
+        o->first_seed = static_cast<std::uint64_t>(n);
+        o->first_seed_set = true;
+      }
+    } else if (cl.is("--set")) {
+      if (!cl.value(&v)) break;
       const auto eq = v.find('=');
       if (eq == std::string::npos || eq == 0) {
-        *error = "--set needs NAME=VALUE, got '" + v + "'";
-        return false;
+        cl.fail("--set needs NAME=VALUE, got '" + v + "'");
+      } else {
+        o->overrides.emplace_back(v.substr(0, eq), v.substr(eq + 1));
       }
-      o->overrides.emplace_back(v.substr(0, eq), v.substr(eq + 1));
+    } else {
+      cl.unknown();
     }
   }
+  if (!cl.finish(help, error)) return false;
+  if (*help) return true;
   if (o->worlds.empty() || o->out_dir.empty()) {
     *error = "--world and --out are required";
     return false;

@@ -12,13 +12,14 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ekf_slam/core/common/angles.h"
-#include "ekf_slam/core/association/data_association.h"
-#include "ekf_slam/evaluation/simulated_run.h"  // kWrongRelocalisationAngle
-#include "ekf_slam/ros/offline/offline_runner.h"
-#include "ekf_slam/ros/plugin_loader.h"
+#include "ekf_slam/app/command_line.h"
 #include "ekf_slam/app/output_files.h"
 #include "ekf_slam/app/yaml_configuration.h"
+#include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/evaluation/scoring/run_scorer.h"  // kWrongRelocalisationAngle
+#include "ekf_slam/ros/offline/offline_runner.h"
+#include "ekf_slam/ros/plugin_loader.h"
 
 namespace ekf_slam {
 
@@ -208,57 +209,53 @@ ExperimentSummary runRelocalisationExperiment(const RelocalisationExperimentOpti
 
 bool parseExperimentArguments(const std::vector<std::string>& args,
                               RelocalisationExperimentOptions* o, bool* help, std::string* error) {
-  *help = false;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "-h" || a == "--help") {
-      *help = true;
-      return true;
+  CommandLine cl(args);
+  std::string v;
+  // The value of a flag that takes a positive number.
+  const auto number = [&](double* out) {
+    if (!cl.value(&v)) return false;
+    char* end = nullptr;
+    *out = std::strtod(v.c_str(), &end);
+    if (v.empty() || *end != '\0' || !(*out > 0.0)) {
+      return cl.fail(cl.flag() + " needs a positive number, got '" + v + "'");
     }
-    if (i + 1 >= args.size()) {
-      *error = a + " needs a value";
-      return false;
-    }
-    const std::string& v = args[++i];
-    const auto number = [&](double* out) {
-      char* end = nullptr;
-      *out = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end != '\0' || !(*out > 0.0)) {
-        *error = a + " needs a positive number, got '" + v + "'";
-        return false;
-      }
-      return true;
-    };
-    double x = 0.0;
-    if (a == "--bag") {
-      o->bag_path = v;
-    } else if (a == "--params") {
-      o->params_path = v;
-    } else if (a == "--out") {
-      o->out_dir = v;
-    } else if (a == "--relocaliser") {
-      o->relocaliser = v;
-    } else if (a == "--map-scans" || a == "--test-scans") {
-      const bool map = a == "--map-scans";
+    return true;
+  };
+  double x = 0.0;
+  while (cl.next()) {
+    if (cl.is("--bag")) {
+      cl.value(&o->bag_path);
+    } else if (cl.is("--params")) {
+      cl.value(&o->params_path);
+    } else if (cl.is("--out")) {
+      cl.value(&o->out_dir);
+    } else if (cl.is("--relocaliser")) {
+      if (cl.value(&v)) o->relocaliser = v;
+    } else if (cl.is("--map-scans") || cl.is("--test-scans")) {
+      const bool map = cl.is("--map-scans");
+      if (!cl.value(&v)) break;
       if (!parseRange(v, map ? &o->map_begin : &o->test_begin, map ? &o->map_end : &o->test_end)) {
-        *error = a + " needs FIRST:END (0-based, END excluded, FIRST < END), got '" + v + "'";
-        return false;
+        cl.fail(cl.flag() + " needs FIRST:END (0-based, END excluded, FIRST < END), got '" + v +
+                "'");
       }
-    } else if (a == "--range") {
-      if (!number(&o->range)) return false;
-    } else if (a == "--field-of-view") {
-      if (!number(&o->field_of_view)) return false;
-    } else if (a == "--inside-landmarks" || a == "--min-observations") {
-      if (!number(&x) || x != std::floor(x)) {
-        *error = a + " needs a positive integer, got '" + v + "'";
-        return false;
+    } else if (cl.is("--range")) {
+      number(&o->range);
+    } else if (cl.is("--field-of-view")) {
+      number(&o->field_of_view);
+    } else if (cl.is("--inside-landmarks") || cl.is("--min-observations")) {
+      if (!number(&x)) break;
+      if (x != std::floor(x)) {
+        cl.fail(cl.flag() + " needs a positive integer, got '" + v + "'");
+        break;
       }
-      (a == "--inside-landmarks" ? o->inside_landmarks : o->min_observations) = static_cast<int>(x);
+      (cl.is("--inside-landmarks") ? o->inside_landmarks : o->min_observations) =
+          static_cast<int>(x);
     } else {
-      *error = "unknown argument '" + a + "'";
-      return false;
+      cl.unknown();
     }
   }
+  if (!cl.finish(help, error)) return false;
+  if (*help) return true;
   if (o->bag_path.empty() || o->out_dir.empty()) {
     *error = "--bag and --out are required";
     return false;

@@ -28,6 +28,7 @@
 
 #include "ekf_slam/LandmarkArray.h"
 #include "ekf_slam/LandmarkObservationArray.h"
+#include "ekf_slam/app/command_line.h"
 #include "ekf_slam/core/common/pose2d.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/evaluation/simulated_run.h"
@@ -513,67 +514,57 @@ bool parseSimulateArguments(const std::vector<std::string>& args, SimulationBagO
                             SimulateAction* action, std::string* error) {
   *action = SimulateAction::kRun;
   bool params_out_given = false;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--help" || a == "-h") {
-      *action = SimulateAction::kHelp;
-      return true;
-    }
-    if (a == "--list") {
+  CommandLine cl(args);
+  std::string v;
+  while (cl.next()) {
+    if (cl.is("--list")) {
       *action = SimulateAction::kList;
       return true;
     }
-    if (a == "--no-params") {
+    if (cl.is("--no-params")) {
       o->write_params = false;
-      continue;
-    }
-    if (a == "--no-markers") {
+    } else if (cl.is("--no-markers")) {
       o->markers = false;
-      continue;
-    }
-    if (a == "--true-noise") {
+    } else if (cl.is("--true-noise")) {
       o->true_noise = true;
-      continue;
-    }
-    if (a != "--world" && a != "--seed" && a != "--out" && a != "--params-out" &&
-        a != "--clutter-rate" && a != "--movers") {
-      *error = "unknown argument '" + a + "'";
-      return false;
-    }
-    if (i + 1 >= args.size()) {
-      *error = a + " needs a value";
-      return false;
-    }
-    const std::string& v = args[++i];
-    if (a == "--world") {
-      o->world = v;
-    } else if (a == "--out") {
-      o->out_path = v;
-    } else if (a == "--params-out") {
-      o->params_path = v;
-      params_out_given = true;
-    } else if (a == "--seed") {
+    } else if (cl.is("--world")) {
+      cl.value(&o->world);
+    } else if (cl.is("--out")) {
+      cl.value(&o->out_path);
+    } else if (cl.is("--params-out")) {
+      params_out_given = cl.value(&o->params_path);
+    } else if (cl.is("--seed")) {
       std::uint64_t seed = 0;
+      if (!cl.value(&v)) break;
       if (!parseUnsigned(v, &seed)) {
-        *error = "--seed needs a non-negative integer, got '" + v + "'";
-        return false;
+        cl.fail("--seed needs a non-negative integer, got '" + v + "'");
       }
       o->seed = seed;
-    } else if (a == "--clutter-rate") {
+    } else if (cl.is("--clutter-rate")) {
       double rate = 0.0;
+      if (!cl.value(&v)) break;
       if (!parseDouble(v, &rate) || rate < 0.0) {
-        *error = "--clutter-rate needs a number >= 0, got '" + v + "'";
-        return false;
+        cl.fail("--clutter-rate needs a number >= 0, got '" + v + "'");
       }
       o->clutter_rate = rate;
-    } else {  // --movers
+    } else if (cl.is("--movers")) {
       std::uint64_t n = 0;
+      if (!cl.value(&v)) break;
       if (!parseUnsigned(v, &n) || n > 100000) {
-        *error = "--movers needs an integer in [0, 100000], got '" + v + "'";
-        return false;
+        cl.fail("--movers needs an integer in [0, 100000], got '" + v + "'");
       }
       o->movers = static_cast<int>(n);
+    } else {
+      cl.unknown();
     }
+  }
+  if (!cl.ok()) {
+    *error = cl.error();
+    return false;
+  }
+  if (cl.help()) {
+    *action = SimulateAction::kHelp;
+    return true;
   }
   if (o->world.empty()) {
     *error = "--world NAME is required (one of: " + worldList() + ")";

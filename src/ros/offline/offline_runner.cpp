@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "ekf_slam/app/association_problem.h"
+#include "ekf_slam/app/command_line.h"
 #include "ekf_slam/app/output_files.h"
 #include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/app/yaml_configuration.h"
@@ -317,64 +318,39 @@ void printOfflineUsage(std::ostream& out, const std::string& program) {
 
 bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions* o, bool* help,
                            std::string* error) {
-  *help = false;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "-h" || a == "--help") {
-      *help = true;
-      return true;
-    }
-    if (a == "--no-plot") {
+  CommandLine cl(args);
+  std::string v;
+  while (cl.next()) {
+    std::string* target = cl.is("--bag")                  ? &o->bag_path
+                          : cl.is("--out")                ? &o->out_dir
+                          : cl.is("--params")             ? &o->params_path
+                          : cl.is("--associator")         ? &o->associator
+                          : cl.is("--load-map")           ? &o->load_map
+                          : cl.is("--scan-topic")         ? &o->scan_topic
+                          : cl.is("--odom-topic")         ? &o->odom_topic
+                          : cl.is("--observations-topic") ? &o->observations_topic
+                          : cl.is("--gps-topic")          ? &o->gps_topic
+                          : cl.is("--tf-static-topic")    ? &o->tf_static_topic
+                          : cl.is("--ground-truth-topic") ? &o->ground_truth_topic
+                          : cl.is("--true-map-topic")     ? &o->true_map_topic
+                          : cl.is("--base-frame")         ? &o->base_frame
+                                                          : nullptr;
+    if (target != nullptr) {
+      cl.value(target);
+    } else if (cl.is("--relocaliser")) {
+      if (cl.value(&v)) o->relocaliser = v;  // "" is a value: off
+    } else if (cl.is("--no-plot")) {
       o->plot = false;
-      continue;
-    }
-    if (a == "--no-progress") {
+    } else if (cl.is("--no-progress")) {
       o->progress = false;
-      continue;
-    }
-    if (a == "--unknown-pose") {
+    } else if (cl.is("--unknown-pose")) {
       o->unknown_pose = true;
-      continue;
-    }
-    if (a == "--landmark-trace") {
+    } else if (cl.is("--landmark-trace")) {
       o->landmark_trace = true;
-      continue;
-    }
-    if (a == "--smooth") {
+    } else if (cl.is("--smooth")) {
       o->smooth = true;
-      continue;
-    }
-    std::string* target = a == "--bag"                  ? &o->bag_path
-                          : a == "--out"                ? &o->out_dir
-                          : a == "--params"             ? &o->params_path
-                          : a == "--associator"         ? &o->associator
-                          : a == "--load-map"           ? &o->load_map
-                          : a == "--scan-topic"         ? &o->scan_topic
-                          : a == "--odom-topic"         ? &o->odom_topic
-                          : a == "--observations-topic" ? &o->observations_topic
-                          : a == "--gps-topic"          ? &o->gps_topic
-                          : a == "--tf-static-topic"    ? &o->tf_static_topic
-                          : a == "--ground-truth-topic" ? &o->ground_truth_topic
-                          : a == "--true-map-topic"     ? &o->true_map_topic
-                          : a == "--base-frame"         ? &o->base_frame
-                                                        : nullptr;
-    const bool dump = a == "--dump-problem";
-    const bool kidnap = a == "--kidnap";
-    const bool relocaliser = a == "--relocaliser";  // "" is a value: off
-    if (target == nullptr && !dump && !kidnap && !relocaliser) {
-      *error = "unknown argument '" + a + "'";
-      return false;
-    }
-    if (i + 1 >= args.size()) {
-      *error = a + " needs a value";
-      return false;
-    }
-    const std::string& v = args[++i];
-    if (relocaliser) {
-      o->relocaliser = v;
-      continue;
-    }
-    if (kidnap) {
+    } else if (cl.is("--kidnap")) {
+      if (!cl.value(&v)) break;
       OfflineOptions::Kidnap k;
       unsigned long scan = 0;
       double dx = 0, dy = 0, dyaw = 0;
@@ -383,26 +359,29 @@ bool parseOfflineArguments(const std::vector<std::string>& args, OfflineOptions*
           used != static_cast<int>(v.size()) || v[0] == '-' ||
           scan > std::numeric_limits<std::uint32_t>::max() ||
           !Eigen::Vector3d(dx, dy, dyaw).allFinite()) {
-        *error = "--kidnap needs SCAN:DX,DY,DYAW (e.g. 2000:30,-20,1.5), got '" + v + "'";
-        return false;
+        cl.fail("--kidnap needs SCAN:DX,DY,DYAW (e.g. 2000:30,-20,1.5), got '" + v + "'");
+        break;
       }
       k.scan = static_cast<std::uint32_t>(scan);
       k.jump = Eigen::Vector3d(dx, dy, dyaw);
       o->kidnaps.push_back(k);
-    } else if (dump) {
+    } else if (cl.is("--dump-problem")) {
+      if (!cl.value(&v)) break;
       char* end = nullptr;
       errno = 0;
       const unsigned long scan = std::strtoul(v.c_str(), &end, 10);
       if (v.empty() || *end != '\0' || v[0] == '-' || errno != 0 ||
           scan > std::numeric_limits<std::uint32_t>::max()) {
-        *error = "--dump-problem needs a scan index (0, 1, ...), got '" + v + "'";
-        return false;
+        cl.fail("--dump-problem needs a scan index (0, 1, ...), got '" + v + "'");
+        break;
       }
       o->dump_problem_scan = static_cast<std::uint32_t>(scan);
     } else {
-      *target = v;
+      cl.unknown();
     }
   }
+  if (!cl.finish(help, error)) return false;
+  if (*help) return true;
   if (o->bag_path.empty() || o->out_dir.empty()) {
     *error = "--bag and --out are required";
     return false;

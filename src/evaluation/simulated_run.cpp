@@ -43,6 +43,7 @@ OdometryInput odometryOnBag(const OdometrySample& sample) {
 // --- KnownAssociation ----------------------------------------------------------------------------
 
 AssociationResult KnownAssociation::associate(const AssociationContext& context) {
+  if (truth_of_) truth_ = truth_of_(context.observations());
   AssociationResult r;
   r.resize(context.numObservations());
   for (std::size_t i = 0; i < context.numObservations() && i < truth_.size(); ++i) {
@@ -79,10 +80,6 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
                            std::vector<Eigen::Vector2d>* errors_per_scan,
                            const ScanObserver& on_scan) {
   const std::optional<sim::CarPark> laser_world = sim::laserWorld(world.name);
-  if (laser_world && known != nullptr) {
-    throw std::invalid_argument("the true associations need truth ids before association; world '" +
-                                world.name + "' extracts its features from scans");
-  }
   std::optional<sim::LaserScanSimulator> laser;
   if (laser_world) laser.emplace(laser_world->laser, laser_world->scene);
   sim::Random laser_noise(sim::Random::streamSeed(seed, sim::kLaserNoiseStream));
@@ -97,6 +94,15 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
   scorer.setTrueMap({beacons.begin(), beacons.end()});
   if (!world.kidnaps.empty()) scorer.expectKidnap();
   std::vector<LandmarkId> truth;
+  // A laser world's true associations: the extracted features' truth as the scorer finds it
+  // (clutter and movers are rejected whatever their id, so the ids it counts down do not matter).
+  Eigen::Vector3d true_sensor = Eigen::Vector3d::Zero();
+  LandmarkId known_clutter = sim::kClutterIdBase;
+  if (laser_world && known != nullptr) {
+    known->setTruthFunction([&](const std::vector<Observation>& observations) {
+      return truthByProximity(true_sensor, observations, beacons, &known_clutter);
+    });
+  }
   feedSimulation(simulation, *pipeline, [&](const sim::ObservationSet& set) {
     if (simulation.kidnapsApplied() > kidnaps) {
       kidnaps = simulation.kidnapsApplied();
@@ -109,9 +115,9 @@ RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std:
     if (laser) {
       // The simulator's point observations are ignored: the laser sees the scene.
       const Eigen::Vector3d sensor = composePose(set.true_pose, world.sensor.offset);
+      true_sensor = composePose(true_pose, world.sensor.offset);
       report = pipeline->processScan(sim::stampOnBag(set.stamp), laser->scan(sensor, &laser_noise));
-      truth = truthByProximity(composePose(true_pose, world.sensor.offset), report.observations,
-                               beacons, &clutter);
+      truth = truthByProximity(true_sensor, report.observations, beacons, &clutter);
     } else {
       const std::vector<LandmarkId> all = set.truthIds();
       if (known != nullptr) known->setTruth(all);  // the pipeline keeps every valid observation

@@ -56,13 +56,19 @@ OdometryInput odometryOnBag(const OdometrySample& sample);
 /// The true associations, for simulated runs (evaluation side, not an estimator): pairs each
 /// observation with the map landmark created from the same truth id, initialises unseen static
 /// landmarks, rejects movers and clutter. runSimulation hands it the truth ids of every set
-/// before the pipeline associates it. What isolates the filter from the association (e.g. the
-/// consistency of AEKF against EKF, docs/results.md); `evaluate --associators truth`.
+/// before the pipeline associates it; in a laser world, where the features come out of the
+/// pipeline's extractor, a truth function finds them from the observations being associated.
+/// What isolates the filter from the association (e.g. the consistency of AEKF against EKF,
+/// docs/results.md); `evaluate --associators truth`.
 class KnownAssociation : public DataAssociation {
  public:
   void configure(const ParameterSource&) override {}
   std::string name() const override { return "truth"; }
   void setTruth(std::vector<LandmarkId> truth) { truth_ = std::move(truth); }
+  /// The truth of the observations being associated, computed when they are (laser worlds:
+  /// truthByProximity from the true sensor pose); replaces setTruth's.
+  using TruthFunction = std::function<std::vector<LandmarkId>(const std::vector<Observation>&)>;
+  void setTruthFunction(TruthFunction f) { truth_of_ = std::move(f); }
   AssociationResult associate(const AssociationContext& context) override;
   void landmarkAdded(int obs, LandmarkId id) override;
   /// A loaded map's ids are taken as truth ids (bench_cekf's prior maps).
@@ -70,7 +76,8 @@ class KnownAssociation : public DataAssociation {
   void reset() override { landmark_of_.clear(); }
 
  private:
-  std::vector<LandmarkId> truth_;                 // of the observations being associated
+  std::vector<LandmarkId> truth_;  // of the observations being associated
+  TruthFunction truth_of_;
   std::map<LandmarkId, LandmarkId> landmark_of_;  // truth id -> map landmark id
 };
 
@@ -87,8 +94,8 @@ void feedSimulation(sim::Simulation& simulation, SlamPipeline& pipeline,
 /// feature extractor): feeds it world + seed and scores it. A laser world's scans (sim::laserWorld)
 /// are ray-cast at the true sensor pose and go through the pipeline's extractor; an extracted
 /// feature's truth is the landmark within kLaserTruthDistance of where it points, else clutter.
-/// `known`: the pipeline's associator when it is KnownAssociation (point worlds only: a laser
-/// world's truth is known after the extraction, so it throws std::invalid_argument).
+/// `known`: the pipeline's associator when it is KnownAssociation (in a laser world it gets a
+/// truth function: the extracted features' truth is found as the scorer finds it).
 /// `on_scan` (may be empty) sees every processed scan after it is scored.
 RunMetrics runSimulationOn(SlamPipeline* pipeline, const sim::World& world, std::uint64_t seed,
                            KnownAssociation* known = nullptr,

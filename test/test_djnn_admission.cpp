@@ -86,7 +86,8 @@ TEST(DJNNAdmission, EstablishedLandmarkKeepsItsPlaceWhenAMoverPassesBy) {
 // (the `arena` settings), noise drawn with `seed`. Returns the scan at which the point at
 // `where(k)` is admitted, -1 if never in `scans`; it is sighted in the scans `seen(k, rng)` says.
 template <typename Where, typename Seen>
-int admittedAtScan(const std::string& min_speed, unsigned seed, int scans, Where where, Seen seen) {
+int admittedAtScan(const std::string& min_speed, unsigned seed, int scans, Where where, Seen seen,
+                   const std::string& learn = "false") {
   Scene s;
   s.pose_cov = assoc_test::poseCov(0.02, 0.02, deg2rad(0.5));
   s.R = assoc_test::diag2(0.15, deg2rad(2.5));
@@ -95,7 +96,8 @@ int admittedAtScan(const std::string& min_speed, unsigned seed, int scans, Where
                      {"admit_evidence", "7"},
                      {"static_test", "true"},
                      {"static_probability", "0.9"},
-                     {"static_min_speed", min_speed}});
+                     {"static_min_speed", min_speed},
+                     {"learn_mover_speed", learn}});
   std::mt19937 rng(seed);
   for (int k = 0; k < scans; ++k) {
     s.observations.clear();
@@ -159,6 +161,84 @@ TEST(DJNNAdmission, StaticLandmarkAtLowDetectionProbabilityIsAdmittedWithAMinimu
 TEST(DJNNAdmission, MinimumSpeedIsOffByDefaultAndValidated) {
   EXPECT_EQ(DJNN().params().static_test.static_min_speed, 0.0);
   EXPECT_THROW(makeDjnn({{"static_min_speed", "-0.1"}}), ParameterError);
+}
+
+// Learning the movers' speed (learn_mover_speed, docs/djnn.md "Movers' speed learned from the
+// landmarks they left"). Another robot A crosses the view 3 m away at 0.4 m/s, seen in every
+// scan: the counter admits it after 7 sightings, the caller maps it, and A leaves; its landmark,
+// missed in view, is removed unestablished. Then robot B crosses 4 m away at 0.3 m/s for 8 s.
+// Returns whether B was admitted; *learned: the speed the static test uses after A.
+bool secondMoverAdmitted(bool learn, unsigned seed, double* learned) {
+  Scene s;
+  s.pose_cov = assoc_test::poseCov(0.02, 0.02, deg2rad(0.5));
+  s.R = assoc_test::diag2(0.15, deg2rad(2.5));
+  s.build();
+  DJNN d = makeDjnn({{"detection_probability", "0.2"},
+                     {"admit_evidence", "7"},
+                     {"static_test", "true"},
+                     {"static_probability", "0.9"},
+                     {"learn_mover_speed", learn ? "true" : "false"}});
+  std::mt19937 rng(seed);
+  int k = 0;
+  auto scan = [&](const Eigen::Vector2d* where) {
+    s.observations.clear();
+    s.truth.clear();
+    if (where) {
+      s.observePoint(*where, &rng);
+    } else {
+      s.observePoint({50.0, 0.0});  // beyond R: keeps the scan non-empty (a miss counts)
+    }
+    return d.associate(s.context(0.2 * k++));
+  };
+  bool mapped = false;
+  for (int i = 0; i < 40 && !mapped; ++i) {
+    const Eigen::Vector2d a(3.0, -1.5 + 0.08 * i);
+    if (scan(&a).decision.back() != Decision::kNew) continue;
+    s.addLandmark(a);
+    s.build();
+    d.landmarkAdded(0, Scene::idOf(0));
+    mapped = true;
+  }
+  EXPECT_TRUE(mapped);
+  bool removed = false;
+  for (int i = 0; i < 400 && !removed; ++i) removed = !scan(nullptr).remove.empty();
+  EXPECT_TRUE(removed);
+  s.landmarks.clear();
+  s.landmark_covs.clear();
+  s.true_landmarks.clear();
+  s.build();
+  *learned = d.learnedMoverSpeed();
+  for (int i = 0; i < 40; ++i) {
+    const Eigen::Vector2d b(4.0, 1.5 - 0.06 * i);
+    if (scan(&b).decision.back() == Decision::kNew) return true;
+  }
+  return false;
+}
+
+// Without learning B gets in like A; with it, A's departure taught the static test a speed well
+// under A's and B stays out.
+TEST(DJNNAdmission, MoverIsKeptOutOnceAnotherMoverLeftTheMap) {
+  int without = 0, with = 0;
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    double learned = 0.0;
+    without += secondMoverAdmitted(false, seed, &learned);
+    EXPECT_EQ(learned, 0.0);
+    with += secondMoverAdmitted(true, seed, &learned);
+    EXPECT_GT(learned, 0.05);
+    EXPECT_LT(learned, 0.3);
+  }
+  EXPECT_GE(without, 18);
+  EXPECT_LE(with, 2);
+}
+
+// Learning changes nothing until a mover has left the map: a static landmark seen in every scan
+// is admitted at its seventh sighting, as without it.
+TEST(DJNNAdmission, LearningMoverSpeedWaitsForAMover) {
+  auto landmark = [](int) { return Eigen::Vector2d(3.0, 0.5); };
+  auto always = [](int, std::mt19937*) { return true; };
+  EXPECT_EQ(admittedAtScan("0", 1, 300, landmark, always, "true"), 6);
+  EXPECT_EQ(DJNN().params().static_test.learn_mover_speed, false);
+  EXPECT_THROW(makeDjnn({{"mover_speed_samples", "0"}}), ParameterError);
 }
 
 }  // namespace

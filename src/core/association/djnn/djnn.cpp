@@ -89,6 +89,7 @@ void DJNN::configure(const ParameterSource& user) {
 
 void DJNN::reset() {
   paper_.reset();
+  static_test_.reset();
   bias_test_.reset();
   joint_.reset();
   density_test_.reset();
@@ -96,6 +97,8 @@ void DJNN::reset() {
   confirmation_.clear();
   scan_ = LocalScan();
   pending_new_.clear();
+  pending_speed_.clear();
+  admitted_.clear();
   last_case_ = Case::kNone;
   stats_ = Stats();
 }
@@ -105,6 +108,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   AssociationResult result;
   result.resize(m);
   pending_new_.assign(m, -1);
+  pending_speed_.assign(m, -1.0);
   scan_.force_new.assign(m, 0);
   scan_.held = false;
   scan_.v_bar.setZero();
@@ -163,11 +167,41 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   static_test_.beginScan(ctx.ekf().poseCovariance());
   paper_.countFeatureEvidence(ctx, &scan_, &result, this, &stats_);
 
+  trackAdmitted(ctx, result);
   if (joint_.on()) {
     joint_.record(result, scan_.stamp);
     for (LandmarkId id : result.remove) remembered_.forgetAnchor(id);  // their anchor is gone
   }
   return result;
+}
+
+void DJNN::trackAdmitted(const AssociationContext& ctx, const AssociationResult& result) {
+  if (admitted_.empty()) return;
+  for (std::size_t i = 0; i < result.decision.size(); ++i) {
+    if (result.decision[i] != Decision::kPaired) continue;
+    const auto it = admitted_.find(result.landmark[i]);
+    if (it != admitted_.end()) ++it->second.pairings;
+  }
+  const EkfSlam& ekf = ctx.ekf();
+  for (LandmarkId id : result.remove) {
+    const auto it = admitted_.find(id);
+    if (it == admitted_.end()) continue;
+    const Admitted a = it->second;
+    admitted_.erase(it);
+    // Established (paired as often as it took to admit it): a landmark, whatever removed it.
+    if (a.pairings >= p_.paper.admit_evidence) continue;
+    // Beside another landmark it was a duplicate of that one, not something that left.
+    const int k = ekf.indexOf(id);
+    if (k < 0) continue;
+    bool duplicate = false;
+    for (int j : scan_.cand) {
+      if (j == k) continue;
+      const Eigen::Vector2d d = ekf.landmark(k) - ekf.landmark(j);
+      const Eigen::Matrix2d S = ekf.landmarkCovariance(k) + ekf.landmarkCovariance(j);
+      duplicate = duplicate || d.dot(S.inverse() * d) <= paper_.tentativeGate();
+    }
+    if (!duplicate) static_test_.moverLeft(a.resolved_speed);
+  }
 }
 
 // --- the extensions' share of the tentative-feature step -----------------------------------------
@@ -218,6 +252,8 @@ Decision DJNN::decide(const AssociationContext& ctx, int obs, int slot, double e
   }
   if (paper_admits && static_ok) {
     pending_new_[obs] = evidence;
+    if (p_.static_test.learn_mover_speed)
+      pending_speed_[obs] = static_test_.resolvedSpeed(paper_.tentatives()[slot]);
     return Decision::kNew;
   }
   return Decision::kTentative;
@@ -232,6 +268,8 @@ void DJNN::landmarkAdded(int obs, LandmarkId id) {
   }
   paper_.setEvidence(id, t);
   if (joint_.on()) joint_.landmarkAdded(id, scan_.stamp);
+  if (obs >= 0 && obs < static_cast<int>(pending_speed_.size()) && pending_speed_[obs] >= 0.0)
+    admitted_[id] = {pending_speed_[obs], 0};
 }
 
 void DJNN::poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& posterior) {

@@ -7,6 +7,7 @@ const std::map<std::string, std::string>& missedDetectionDefaults() {
   static const std::map<std::string, std::string> defaults = {
       {"tentative_follow_pose", "true"},      // FollowPose
       {"static_heading", "true"},             // StaticTest
+      {"learn_mover_speed", "true"},          // StaticTest: the movers' speed, online
       {"shift_test", "true"},                 // ShiftTest
       {"estimate_landmark_density", "true"},  // DensityTest, from the map
       {"bias_keep_pairings", "10"},           // BiasTest: established landmarks

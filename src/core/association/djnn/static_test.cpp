@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
@@ -15,6 +16,29 @@ void StaticTest::read(const ParameterReader& r) {
   p_.static_jitter = r.nonNegative("static_jitter", def.static_jitter);
   p_.static_heading = r.flag("static_heading", def.static_heading);
   p_.static_min_speed = r.nonNegative("static_min_speed", def.static_min_speed);
+  p_.learn_mover_speed = r.flag("learn_mover_speed", def.learn_mover_speed);
+  p_.mover_speed_samples = r.integer("mover_speed_samples", def.mover_speed_samples, 1, 1000000);
+}
+
+void StaticTest::reset() {
+  mover_speeds_.clear();
+  learned_speed_ = 0.0;
+}
+
+double StaticTest::minSpeed() const {
+  return p_.static_min_speed > 0.0 ? p_.static_min_speed : learned_speed_;
+}
+
+double StaticTest::baselineInformation(double v) const {
+  if (!(v > 0.0)) return 0.0;
+  // An object at speed v has v_hat ~ N(v, J^-1): it fails the velocity test with probability
+  // about p when v sqrt(lambda_min(J)) >= sqrt(chi2(2, p)) + z_p (z_p: the standard normal
+  // quantile, one-sided along its direction of motion).
+  const double q = p_.static_probability;
+  const double z = q >= 0.5 ? std::sqrt(chi2Quantile(2.0 * q - 1.0, 1))
+                            : -std::sqrt(chi2Quantile(1.0 - 2.0 * q, 1));
+  const double k = std::max(0.0, std::sqrt(velocity_gate_) + z) / v;
+  return k * k;
 }
 
 void StaticTest::configure(int admit_evidence) {
@@ -22,17 +46,8 @@ void StaticTest::configure(int admit_evidence) {
   static_gate_ =
       Chi2Table(p_.static_probability, 2 * std::max({admit_evidence, 2, kMaxJointSightings}));
   velocity_gate_ = chi2Quantile(p_.static_probability, 2);
-  baseline_information_ = 0.0;
-  if (p_.static_min_speed > 0.0) {
-    // An object at speed v has v_hat ~ N(v, J^-1): it fails the velocity test with probability
-    // about p when v sqrt(lambda_min(J)) >= sqrt(chi2(2, p)) + z_p (z_p: the standard normal
-    // quantile, one-sided along its direction of motion).
-    const double q = p_.static_probability;
-    const double z = q >= 0.5 ? std::sqrt(chi2Quantile(2.0 * q - 1.0, 1))
-                              : -std::sqrt(chi2Quantile(1.0 - 2.0 * q, 1));
-    const double k = std::max(0.0, std::sqrt(velocity_gate_) + z) / p_.static_min_speed;
-    baseline_information_ = k * k;
-  }
+  baseline_information_ = baselineInformation(p_.static_min_speed);
+  reset();
 }
 
 void StaticTest::beginScan(const Eigen::Matrix3d& P_vv) {
@@ -46,7 +61,7 @@ Eigen::Matrix2d StaticTest::sightingNoise() const {
 
 bool StaticTest::stillStatic(Tentative* t, const Eigen::Vector2d& z,
                              const Eigen::Vector2d& heading_lever, const Eigen::Matrix2d& C,
-                             double stamp, const AssociationContext* ctx, int obs) const {
+                             double stamp, const AssociationContext* ctx, int obs) {
   if (!p_.static_test) return true;
   // Recursive least-squares residual of the sightings about one static point: the new
   // sighting's normalised distance to the fused position of the earlier ones.
@@ -59,15 +74,26 @@ bool StaticTest::stillStatic(Tentative* t, const Eigen::Vector2d& z,
   bool moving = t->residual > static_gate_(2 * (t->sightings - 1));
   double joint = 0.0;
   int dof = 0;
-  if (ctx != nullptr && jointStatistic(*ctx, *t, obs, &joint, &dof))
-    moving = joint > static_gate_(dof);
-  if (p_.static_min_speed > 0.0 && !moving) {
-    // Against a constant velocity (2 dof) rather than any scatter (2 (k - 1) dof): the
-    // stronger test for an object moving steadily.
+  const bool joint_known = ctx != nullptr && jointStatistic(*ctx, *t, obs, &joint, &dof);
+  if (joint_known) moving = joint > static_gate_(dof);
+  if ((p_.static_min_speed > 0.0 || p_.learn_mover_speed) && !moving) {
     addToTrack(t, z, C, stamp);
-    Eigen::Matrix2d J;
-    double v2 = 0.0;
-    moving = trackVelocity(*t, &J, &v2) && v2 > velocity_gate_;
+    if (minSpeed() > 0.0) {
+      // Against a constant velocity (2 dof) rather than any scatter (2 (k - 1) dof): the
+      // stronger test for an object moving steadily. At a learned speed the joint fit decides
+      // where it can: it holds the pose error the sightings share, which a pose correction
+      // would otherwise show as motion.
+      Eigen::Matrix2d J;
+      Eigen::Vector2d v;
+      double v2 = 0.0, residual = 0.0;
+      int m = 0;
+      if (p_.static_min_speed <= 0.0 && joint_known &&
+          jointTrack(*ctx, *t, obs, &v, &J, &residual, &m)) {
+        moving = v.dot(J * v) > velocity_gate_;
+      } else {
+        moving = trackVelocity(*t, &J, &v2) && v2 > velocity_gate_;
+      }
+    }
   }
   return !moving;
 }
@@ -91,8 +117,15 @@ Eigen::Matrix3d poseBlock(const ConstMatrixView& P, int a, int b) {
 
 }  // namespace
 
-bool StaticTest::jointStatistic(const AssociationContext& ctx, const Tentative& t, int obs,
-                                double* statistic, int* dof) const {
+struct StaticTest::JointSightings {
+  int m = 0;
+  Eigen::VectorXd y;
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  std::vector<double> dt;
+};
+
+bool StaticTest::jointSightings(const AssociationContext& ctx, const Tentative& t, int obs,
+                                JointSightings* out) const {
   const EkfSlam& ekf = ctx.ekf();
   if (ekf.numClones() == 0 || obs < 0) return false;
   struct Use {
@@ -100,15 +133,16 @@ bool StaticTest::jointStatistic(const AssociationContext& ctx, const Tentative& 
     Eigen::Vector2d z;
     Eigen::Matrix2d R;
     MeasurementKind kind;
+    double stamp;
   };
   std::vector<Use> uses;
   for (const FeatureSighting& s : t.history) {
     const CloneId c = ekf.findClone(s.stamp);
-    if (c != kNoClone) uses.push_back({ekf.cloneRow(c), s.z, s.R, s.kind});
+    if (c != kNoClone) uses.push_back({ekf.cloneRow(c), s.z, s.R, s.kind, s.stamp});
   }
   if (uses.empty()) return false;
   const Observation& o = ctx.observations()[obs];
-  uses.push_back({0, o.z, o.R, o.kind});
+  uses.push_back({0, o.z, o.R, o.kind, ctx.stamp()});
   const int m = static_cast<int>(uses.size());
   const ConstMatrixView P = ekf.storedCovariance();
   Eigen::VectorXd y(2 * m);
@@ -129,24 +163,70 @@ bool StaticTest::jointStatistic(const AssociationContext& ctx, const Tentative& 
     }
   }
   if (!y.allFinite() || !S.allFinite()) return false;
-  const Eigen::LLT<Eigen::MatrixXd> llt(S);
-  if (llt.info() != Eigen::Success) return false;
-  // One point p for every sighting: y = A p + e, A = [I; I; ...]. The residual of the
-  // generalised least squares is y^T W y - (A^T W y)^T (A^T W A)^-1 (A^T W y), W = S^-1.
-  Eigen::MatrixXd A(2 * m, 2);
-  for (int k = 0; k < m; ++k) A.block<2, 2>(2 * k, 0).setIdentity();
+  out->llt.compute(S);
+  if (out->llt.info() != Eigen::Success) return false;
+  out->m = m;
+  out->y = y;
+  out->dt.resize(m);
+  for (int k = 0; k < m; ++k) out->dt[k] = uses[k].stamp - uses.front().stamp;
+  return true;
+}
+
+namespace {
+
+// Generalised least squares of y = A x + e, e ~ N(0, S) (llt: S's factor): the residual
+// y^T W y - (A^T W y)^T (A^T W A)^-1 (A^T W y), W = S^-1; x's estimate and information A^T W A.
+double glsResidual(const Eigen::LLT<Eigen::MatrixXd>& llt, const Eigen::VectorXd& y,
+                   const Eigen::MatrixXd& A, Eigen::VectorXd* x, Eigen::MatrixXd* info) {
   const Eigen::MatrixXd WA = llt.solve(A);
   const Eigen::VectorXd Wy = llt.solve(y);
-  const Eigen::Matrix2d M = A.transpose() * WA;
-  const Eigen::Vector2d b = A.transpose() * Wy;
-  *statistic = y.dot(Wy) - b.dot(M.ldlt().solve(b));
-  *dof = 2 * (m - 1);
+  const Eigen::MatrixXd M = A.transpose() * WA;
+  const Eigen::VectorXd b = A.transpose() * Wy;
+  const Eigen::VectorXd xhat = M.ldlt().solve(b);
+  if (x) *x = xhat;
+  if (info) *info = M;
+  return y.dot(Wy) - b.dot(xhat);
+}
+
+}  // namespace
+
+bool StaticTest::jointStatistic(const AssociationContext& ctx, const Tentative& t, int obs,
+                                double* statistic, int* dof) const {
+  JointSightings js;
+  if (!jointSightings(ctx, t, obs, &js)) return false;
+  // One point p for every sighting: y = A p + e, A = [I; I; ...].
+  Eigen::MatrixXd A(2 * js.m, 2);
+  for (int k = 0; k < js.m; ++k) A.block<2, 2>(2 * k, 0).setIdentity();
+  *statistic = glsResidual(js.llt, js.y, A, nullptr, nullptr);
+  *dof = 2 * (js.m - 1);
   return std::isfinite(*statistic);
+}
+
+bool StaticTest::jointTrack(const AssociationContext& ctx, const Tentative& t, int obs,
+                            Eigen::Vector2d* v, Eigen::Matrix2d* J, double* residual,
+                            int* m) const {
+  JointSightings js;
+  if (!jointSightings(ctx, t, obs, &js) || js.m < 3) return false;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * js.m, 4);
+  for (int k = 0; k < js.m; ++k) {
+    A.block<2, 2>(2 * k, 0).setIdentity();
+    A.block<2, 2>(2 * k, 2) = js.dt[k] * Eigen::Matrix2d::Identity();
+  }
+  Eigen::VectorXd x;
+  Eigen::MatrixXd L;
+  *residual = glsResidual(js.llt, js.y, A, &x, &L);
+  *v = x.tail<2>();
+  // The velocity's information with the position marginalised (Schur complement).
+  *J = L.bottomRightCorner<2, 2>() -
+       L.bottomLeftCorner<2, 2>() * L.topLeftCorner<2, 2>().inverse() * L.topRightCorner<2, 2>();
+  *m = js.m;
+  return std::isfinite(*residual) && v->allFinite() && J->allFinite();
 }
 
 void StaticTest::started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
                          double stamp) const {
-  if (p_.static_min_speed > 0.0) addToTrack(t, z, C, stamp);
+  // While learning the track is kept from the start, so that it is whole once a speed is known.
+  if (p_.static_min_speed > 0.0 || p_.learn_mover_speed) addToTrack(t, z, C, stamp);
 }
 
 bool StaticTest::admits(const Tentative& t) const {
@@ -156,14 +236,40 @@ bool StaticTest::admits(const Tentative& t) const {
   // T >= admit_evidence already implies as many sightings since the last restart.
   if (!p_.static_test) return true;
   if (t.sightings < admit_evidence_) return false;
-  if (p_.static_min_speed <= 0.0) return true;
+  const double v_min = minSpeed();
+  if (v_min <= 0.0) return true;
   Eigen::Matrix2d J;
   double v2 = 0.0;
   if (!trackVelocity(t, &J, &v2)) return false;
   // Least eigenvalue of the symmetric 2 x 2 J: the direction the velocity is least known in.
   const double half_trace = 0.5 * J.trace();
   const double gap = std::sqrt(std::max(0.0, half_trace * half_trace - J.determinant()));
-  return half_trace - gap >= baseline_information_;
+  const double needed =
+      p_.static_min_speed > 0.0 ? baseline_information_ : baselineInformation(v_min);
+  return half_trace - gap >= needed;
+}
+
+double StaticTest::resolvedSpeed(const Tentative& t) const {
+  Eigen::Matrix2d J;
+  double v2 = 0.0;
+  if (!trackVelocity(t, &J, &v2)) return std::numeric_limits<double>::infinity();
+  const double half_trace = 0.5 * J.trace();
+  const double gap = std::sqrt(std::max(0.0, half_trace * half_trace - J.determinant()));
+  const double lambda = half_trace - gap;
+  if (!(lambda > 0.0)) return std::numeric_limits<double>::infinity();
+  return std::sqrt(baselineInformation(1.0) / lambda);
+}
+
+void StaticTest::moverLeft(double speed) {
+  if (!p_.learn_mover_speed || !std::isfinite(speed)) return;
+  mover_speeds_.push_back(speed);
+  if (static_cast<int>(mover_speeds_.size()) < p_.mover_speed_samples) return;
+  // A mover that passed the test at resolved speed r moved slower than about r, anywhere below
+  // it: half of it is its speed's middle. The median over movers: features pieced together from
+  // several passes over tens of seconds resolve almost nothing and must not alone set the wait.
+  std::vector<double> sorted = mover_speeds_;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  learned_speed_ = 0.5 * sorted[sorted.size() / 2];
 }
 
 // Weighted least squares of z_i = p + (t_i - t_0) v + e_i, e_i ~ N(0, C_i), in information form.

@@ -6,7 +6,7 @@
 //   EvidenceModel        detection_probability, clutter_density, max_evidence
 //                                                        sensors that miss landmarks or see clutter
 //   AmbiguityGate        ambiguity_probability           duplicates of a landmark left unpaired
-//   StaticTest           static_*                        slow movers admitted as landmarks
+//   StaticTest           static_*, learn_mover_speed     slow movers admitted as landmarks
 //   BiasTest             bias_*                          landmarks dragged along by movers
 //   FollowPose           tentative_follow_pose           tentative features left at a corrected
 //   pose ShiftTest            shift_test, shift_margin        a periodic layout's shifted pairing
@@ -24,6 +24,7 @@
 
 #include <cstdint>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -80,6 +81,8 @@ class DJNN : public DataAssociation, private FeatureRules {
   const Params& params() const { return p_; }
   /// The density of unmapped landmarks in use: landmark_density, or its online estimate.
   double landmarkDensity() const { return density_test_.density(); }
+  /// The movers' speed learned so far (learn_mover_speed), 0 before any was.
+  double learnedMoverSpeed() const { return static_test_.learnedSpeed(); }
   Case lastCase() const { return last_case_; }
   const Stats& stats() const { return stats_; }
   /// v_bar (range, bearing) that decided the pairing of the last scan (zero in case 1).
@@ -99,6 +102,10 @@ class DJNN : public DataAssociation, private FeatureRules {
   Decision decide(const AssociationContext& ctx, int obs, int slot, double evidence,
                   bool paper_admits) override;
 
+  /// Counts the pairings of the landmarks DJNN admitted; one removed unestablished, with no
+  /// other landmark at its place, tells the static test a mover left (learn_mover_speed).
+  void trackAdmitted(const AssociationContext& ctx, const AssociationResult& result);
+
   Params p_;
   DjnnPaper paper_;  // with its EvidenceModel
   AmbiguityGate ambiguity_;
@@ -113,7 +120,14 @@ class DJNN : public DataAssociation, private FeatureRules {
   HeldConfirmation confirmation_;
 
   LocalScan scan_;
-  std::vector<double> pending_new_;  ///< per observation of the last scan: T at admission, or -1
+  std::vector<double> pending_new_;    ///< per observation of the last scan: T at admission, or -1
+  std::vector<double> pending_speed_;  ///< per observation: StaticTest::resolvedSpeed at admission
+  /// Landmarks DJNN admitted: the speed their sightings resolved then, and pairings since.
+  struct Admitted {
+    double resolved_speed;
+    int pairings;
+  };
+  std::unordered_map<LandmarkId, Admitted> admitted_;
   Case last_case_ = Case::kNone;
   Stats stats_;
 };

@@ -4,8 +4,13 @@
 // sighting; admission waits for admit_evidence sightings of one static point. Options:
 // static_jitter (pose jitter per sighting), static_heading (a heading error common to the
 // sightings), static_min_speed (a constant-velocity fit of the sightings: its velocity must pass
-// chi2(2), and admission waits until an object at that speed would have shown its motion).
+// chi2(2), and admission waits until an object at that speed would have shown its motion),
+// learn_mover_speed (without static_min_speed: the same test and wait at a speed learned from the
+// landmarks that left the map unestablished, the movers that got in, once mover_speed_samples of
+// them did).
 #pragma once
+
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -24,11 +29,23 @@ class StaticTest {
     double static_jitter = 0.0;  ///< [m] isotropic std dev per sighting
     bool static_heading = false;
     double static_min_speed = 0.0;  ///< [m/s]; 0: off
+    /// With static_min_speed 0: estimate it from what was seen moving (docs/djnn.md).
+    bool learn_mover_speed = false;
+    int mover_speed_samples = 1;  ///< movers seen before the estimate is used
   };
   void read(const ParameterReader& r);
   /// admit_evidence: the sightings admission waits for (and the gate table's size).
   void configure(int admit_evidence);
   const Params& params() const { return p_; }
+  /// Forgets the learned movers (a new run).
+  void reset();
+  /// The slowest speed kept out of the map in use: static_min_speed, else the learned one once
+  /// enough movers were seen, else 0 (no velocity test, no wait).
+  double minSpeed() const;
+  /// The learned speed, 0 before mover_speed_samples movers were seen.
+  double learnedSpeed() const { return learned_speed_; }
+  /// The resolved speeds (resolvedSpeed) of the movers that left so far [m/s], in order.
+  const std::vector<double>& moverSpeeds() const { return mover_speeds_; }
 
   /// The pose covariance of this scan (static_heading reads its heading variance).
   void beginScan(const Eigen::Matrix3d& P_vv);
@@ -42,7 +59,7 @@ class StaticTest {
   /// (core/pipeline/delayed_sightings.h), the joint test decides; else the recursive one.
   bool stillStatic(Tentative* t, const Eigen::Vector2d& z, const Eigen::Vector2d& heading_lever,
                    const Eigen::Matrix2d& C, double stamp, const AssociationContext* ctx = nullptr,
-                   int obs = -1) const;
+                   int obs = -1);
   /// Keeps observation `obs` of this scan as t's latest sighting (the joint test's history).
   void record(const AssociationContext& ctx, int obs, Tentative* t) const;
   /// The joint test's statistic: t's earlier sightings that have a pose clone and observation
@@ -52,11 +69,22 @@ class StaticTest {
   /// static_jitter). *dof = 2 (m - 1) for m sightings; false when fewer than two.
   bool jointStatistic(const AssociationContext& ctx, const Tentative& t, int obs, double* statistic,
                       int* dof) const;
+  /// The same sightings fitted with a constant velocity, z_k = p + (t_k - t_0) v: the velocity
+  /// v_hat, its information J (p marginalised) and the residual about the track (2 (m - 2) dof,
+  /// m sightings); false when fewer than three.
+  bool jointTrack(const AssociationContext& ctx, const Tentative& t, int obs, Eigen::Vector2d* v,
+                  Eigen::Matrix2d* J, double* residual, int* m) const;
   /// Feature t (re)starts from sighting z.
   void started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
                double stamp) const;
   /// Enough static sightings, over a long enough time, for admission.
   bool admits(const Tentative& t) const;
+  /// The slowest speed at which t's sightings would have shown motion (the inverse of the
+  /// admission wait); infinity when its velocity is not determined.
+  double resolvedSpeed(const Tentative& t) const;
+  /// A landmark admitted with resolved speed `speed` left again unestablished: a mover slower
+  /// than the test could see then.
+  void moverLeft(double speed);
 
  private:
   /// Adds a sighting to the constant-velocity fit of `t`.
@@ -65,12 +93,21 @@ class StaticTest {
   /// The fit's velocity information J (inverse covariance of the velocity, position marginalised)
   /// and the velocity test statistic v^T J v; false when the velocity is not determined yet.
   static bool trackVelocity(const Tentative& t, Eigen::Matrix2d* J, double* statistic);
+  /// The sightings of jointStatistic as y ~ N(A x, S): y, the Cholesky factor of S, and the
+  /// time of each sighting since the first.
+  struct JointSightings;
+  bool jointSightings(const AssociationContext& ctx, const Tentative& t, int obs,
+                      JointSightings* out) const;
+  /// The velocity information that admission needs at speed v (0: none).
+  double baselineInformation(double v) const;
 
   Params p_;
   int admit_evidence_ = 7;
   Chi2Table static_gate_;
   double velocity_gate_ = 0.0;         ///< chi2(2, static_probability)
   double baseline_information_ = 0.0;  ///< least velocity information for admission [s^2/m^2]
+  std::vector<double> mover_speeds_;   ///< learned
+  double learned_speed_ = 0.0;         ///< 0 until mover_speed_samples movers were seen
   double heading_var_ = 0.0;           ///< of this scan (static_heading)
 };
 

@@ -22,6 +22,7 @@ add_library(ekf_slam_core
   src/core/filter/scan_window.cpp
   # feature extraction: scan filters, extractors
   src/core/feature_extraction/scan_geometry.cpp
+  src/core/feature_extraction/scan_occlusion.cpp
   src/core/feature_extraction/scan_filter_chain.cpp
   src/core/feature_extraction/feature_extractor.cpp
   src/core/feature_extraction/tree_extractor.cpp
@@ -49,6 +50,7 @@ add_library(ekf_slam_core
   src/core/association/djnn/landmark_spacing.cpp
   src/core/association/djnn/remembered_features.cpp
   src/core/association/djnn/held_confirmation.cpp
+  src/core/association/djnn/occluded_misses.cpp
   src/core/association/djnn/joint_decision.cpp
   src/core/association/djnn/djnn.cpp
   # graph matching (RRW&SC)

@@ -28,8 +28,14 @@ const char* toString(Decision d) {
 
 AssociationContext::AssociationContext(const EkfSlam& ekf, const RangeBearingModel& model,
                                        const LandmarkIndex& index,
-                                       const std::vector<Observation>& observations, double stamp)
-    : ekf_(ekf), model_(model), index_(index), obs_(observations), stamp_(stamp) {
+                                       const std::vector<Observation>& observations, double stamp,
+                                       const ScanOcclusion* occlusion)
+    : ekf_(ekf),
+      model_(model),
+      index_(index),
+      obs_(observations),
+      stamp_(stamp),
+      occlusion_(occlusion) {
   predictions_.reserve(64);
 }
 
@@ -60,6 +66,18 @@ const AssociationContext::Prediction& AssociationContext::prediction(int landmar
     if (ekf_.secondOrderTerms(landmark, model_, kind, &mean, &p.extra)) p.z_hat += mean;
   }
   return p;
+}
+
+Eigen::Matrix2d AssociationContext::predictedCovariance(int landmark) const {
+  const Prediction& p = prediction(landmark, MeasurementKind::kRangeBearing);
+  const auto P = ekf_.storedCovariance();
+  const int r = ekf_.stateRow(landmark);
+  const Eigen::Matrix2d cross = p.H_pose * P.block<3, 2>(0, r) * p.H_landmark.transpose();
+  Eigen::Matrix2d S = p.H_pose * P.topLeftCorner<3, 3>() * p.H_pose.transpose() + cross +
+                      cross.transpose() +
+                      p.H_landmark * P.block<2, 2>(r, r) * p.H_landmark.transpose() + p.extra;
+  S(0, 1) = S(1, 0) = 0.5 * (S(0, 1) + S(1, 0));
+  return S;
 }
 
 AssociationContext::Individual AssociationContext::individual(int obs, int landmark) const {

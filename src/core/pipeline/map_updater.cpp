@@ -6,7 +6,8 @@
 
 namespace ekf_slam {
 
-void MapUpdater::associate(DataAssociation& associator, double stamp, ScanReport* report) {
+void MapUpdater::associate(DataAssociation& associator, double stamp, ScanReport* report,
+                           const ScanOcclusion* occlusion) {
   EkfSlam& ekf = filter_.ekf();
   index_.sync(ekf);
   // filter cekf: the associators read only the active area's entries, so a landmark outside
@@ -16,7 +17,7 @@ void MapUpdater::associate(DataAssociation& associator, double stamp, ScanReport
     index_.sync(ekf);
   const auto t0 = std::chrono::steady_clock::now();
   {
-    const AssociationContext context(ekf, model_, index_, report->observations, stamp);
+    const AssociationContext context(ekf, model_, index_, report->observations, stamp, occlusion);
     report->association = associator.associate(context);
   }
   report->association_s = secondsSince(t0);

@@ -134,7 +134,10 @@ ScanReport SlamPipeline::processScan(double stamp, const LaserScanData& input) {
     numberScan(&report);
     return report;
   }
-  return associateAndUpdate(report.stamp, std::move(observations), std::move(report));
+  // What the scan hid, for an associator that must not count a hidden landmark as missed. The
+  // configured range noise stands for a beam's (it is the observations' default).
+  occlusion_.assign(scan, observations_.extractor().featureRadius(), config_.sigma_range);
+  return associateAndUpdate(report.stamp, std::move(observations), std::move(report), &occlusion_);
 }
 
 ScanReport SlamPipeline::processObservations(double stamp, std::vector<Observation> observations) {
@@ -169,7 +172,7 @@ void SlamPipeline::numberScan(ScanReport* report) {
 // --- one scan ------------------------------------------------------------------------------------
 
 ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observation> observations,
-                                            ScanReport report) {
+                                            ScanReport report, const ScanOcclusion* occlusion) {
   report.observations = std::move(observations);
   numberScan(&report);
   if (recovery_.lost()) {
@@ -178,7 +181,7 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
     relocaliseLost(&report);
     return report;
   }
-  mapper_.associate(*associator_, stamp, &report);
+  mapper_.associate(*associator_, stamp, &report, occlusion);
   // A kidnap found by rule 3: the associator's decisions are not applied, the relocaliser's are.
   if (recovery_.active() && kidnapRefused(&report)) {
     recovery_.rememberPose(report);

@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "ekf_slam/core/feature_extraction/scan_occlusion.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/landmark_index.h"
 #include "ekf_slam/core/filter/observation.h"
@@ -39,8 +40,11 @@ class AssociationContext {
     double log_det_S;    ///< ln |S_ij|
   };
 
+  /// `occlusion`: what the scan the observations came from hid (null: no scan, e.g. a camera's
+  /// point observations; nothing is known hidden then).
   AssociationContext(const EkfSlam& ekf, const RangeBearingModel& model, const LandmarkIndex& index,
-                     const std::vector<Observation>& observations, double stamp);
+                     const std::vector<Observation>& observations, double stamp,
+                     const ScanOcclusion* occlusion = nullptr);
 
   const EkfSlam& ekf() const { return ekf_; }
   const RangeBearingModel& model() const { return model_; }
@@ -53,6 +57,8 @@ class AssociationContext {
   std::size_t numLandmarks() const { return ekf_.numLandmarks(); }
   /// The spatial index (e.g. for a context over other observations of the same scan).
   const LandmarkIndex& landmarkIndex() const { return index_; }
+  /// The scan's occlusion, or null when the observations came without a scan.
+  const ScanOcclusion* occlusion() const { return occlusion_; }
 
   /// State-order indices of the landmarks within `radius` of `center` (spatial index).
   std::vector<int> landmarksNear(const Eigen::Vector2d& center, double radius) const;
@@ -62,6 +68,8 @@ class AssociationContext {
 
   const Prediction& prediction(int landmark,
                                MeasurementKind kind = MeasurementKind::kRangeBearing) const;
+  /// Covariance of a landmark's predicted range and bearing, H P H^T (no measurement noise).
+  Eigen::Matrix2d predictedCovariance(int landmark) const;
   /// Computes M_ij and friends; counts one candidate evaluation.
   Individual individual(int obs, int landmark) const;
   /// Where an observation would put a landmark (inverse model at the current pose).
@@ -86,6 +94,7 @@ class AssociationContext {
   const LandmarkIndex& index_;
   const std::vector<Observation>& obs_;
   double stamp_;
+  const ScanOcclusion* occlusion_;
   // Keyed by landmark index and kind (2 index + kind) and filled on first use: a scan touches a
   // handful of landmarks, so the cache must not cost O(map) to set up. Node-based, so returned
   // references stay valid.

@@ -6,6 +6,7 @@
 // cylinder's visible width). Details and the noise model: docs/feature_extraction.md.
 #pragma once
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,8 @@ class BeaconExtractor : public FeatureExtractor {
   void configure(const ParameterSource& params) override;
   std::string name() const override { return "BeaconExtractor"; }
   bool needsIntensities() const override { return true; }
+  /// The pole's radius, or half the widest group kept (its hits lie within that of its centre).
+  double featureRadius() const override { return std::max(p_.beacon_radius, 0.5 * p_.max_width); }
   /// Throws ScanFormatError for a scan without (or with a wrong number of) intensities.
   void checkScan(const LaserScanData& scan) const override;
   /// Observations with R from the group (docs/feature_extraction.md), descriptor = width.

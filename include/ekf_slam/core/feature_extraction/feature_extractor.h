@@ -53,6 +53,10 @@ class FeatureExtractor {
   virtual std::string name() const = 0;
   /// True when extract() needs the intensity channel (the shells say so at start-up).
   virtual bool needsIntensities() const { return false; }
+  /// How far in front of a feature's reported position its own surface can return a beam (a
+  /// trunk's or a beacon's largest radius) [m]: a nearer return at its bearing hides it
+  /// (ScanOcclusion). The default, 0, is a point.
+  virtual double featureRadius() const { return 0.0; }
 
   /// Throws ScanFormatError when the scan cannot be used by this extractor at all (checked
   /// before the scan changes any state). The default accepts every scan.
@@ -74,6 +78,7 @@ class ForwardingFeatureExtractor : public FeatureExtractor {
   void configure(const ParameterSource& params) override { inner_->configure(params); }
   std::string name() const override { return inner_->name(); }
   bool needsIntensities() const override { return inner_->needsIntensities(); }
+  double featureRadius() const override { return inner_->featureRadius(); }
   void checkScan(const LaserScanData& scan) const override { inner_->checkScan(scan); }
   std::vector<Observation> extract(const LaserScanData& scan) const override {
     return inner_->extract(scan);

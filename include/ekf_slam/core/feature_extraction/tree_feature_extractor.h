@@ -20,6 +20,8 @@ class TreeFeatureExtractor : public FeatureExtractor {
   /// Parameter names are TreeExtractorParams' fields (max_range, range_jump, ...; angles in rad).
   void configure(const ParameterSource& params) override;
   std::string name() const override { return "TreeExtractor"; }
+  /// Half the widest trunk segment kept (max_extent).
+  double featureRadius() const override { return 0.5 * detector_.params().max_extent; }
   std::vector<Observation> extract(const LaserScanData& scan) const override;
 
   const TreeExtractor& detector() const { return detector_; }

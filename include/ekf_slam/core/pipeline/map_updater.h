@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/core/feature_extraction/scan_occlusion.h"
 #include "ekf_slam/core/filter/filter_backend.h"
 #include "ekf_slam/core/filter/landmark_index.h"
 #include "ekf_slam/core/filter/observation_model.h"
@@ -31,8 +32,10 @@ class MapUpdater {
         counters_(counters) {}
 
   /// The associator's decisions for report->observations on the predicted state, sanitised
-  /// (report->association, association_s, invalid_decisions).
-  void associate(DataAssociation& associator, double stamp, ScanReport* report);
+  /// (report->association, association_s, invalid_decisions). `occlusion`: what the observations'
+  /// scan hid (null without a scan).
+  void associate(DataAssociation& associator, double stamp, ScanReport* report,
+                 const ScanOcclusion* occlusion = nullptr);
   /// The update with the paired observations and `carried` (pairings of older scans carried into
   /// this one), then the new landmarks and their earlier sightings, then the removals
   /// (report->nis, update_ok, delayed_sightings, removed, update_s; kNew entries get the new

@@ -170,8 +170,9 @@ class SlamPipeline {
   void applyPendingMotion() const;
   /// Gives the report the next scan number and the odometry since the previous scan.
   void numberScan(ScanReport* report);
+  /// `occlusion`: what the scan hid (null for point observations).
   ScanReport associateAndUpdate(double stamp, std::vector<Observation> observations,
-                                ScanReport report);
+                                ScanReport report, const ScanOcclusion* occlusion = nullptr);
   /// While lost: one relocaliser call; a confirmed fix is applied.
   void relocaliseLost(ScanReport* report);
   /// Lost rule 3 on the association, before it is applied; true when it fired: the relocaliser
@@ -206,6 +207,7 @@ class SlamPipeline {
   DelayedSightings delayed_;
   mutable MotionPredictor motion_;
   ObservationBuilder observations_;
+  ScanOcclusion occlusion_;  // of the scan being processed (workspace)
   MapUpdater mapper_;
   LostMonitor monitor_;
   mutable Recovery recovery_;

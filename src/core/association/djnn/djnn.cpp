@@ -56,6 +56,8 @@ void DJNN::configure(const ParameterSource& user) {
   confirmation.read(r);
   BiasTest bias;
   bias.read(r);
+  OccludedMisses occlusion;
+  occlusion.read(r, paper.individual_probability);
 
   p.paper = paper;
   p.ambiguity = ambiguity.params();
@@ -68,6 +70,7 @@ void DJNN::configure(const ParameterSource& user) {
   p.remembered = remembered.params();
   p.spacing = spacing.params();
   p.confirmation = confirmation.params();
+  p.occlusion = occlusion.params();
   p_ = p;
   ambiguity_ = ambiguity;
   static_test_ = static_test;
@@ -79,6 +82,7 @@ void DJNN::configure(const ParameterSource& user) {
   spacing_ = spacing;
   confirmation_ = confirmation;
   bias_test_ = bias;
+  occlusion_ = occlusion;
 
   paper_.configure(p_.paper, p_.max_evidence);
   density_test_.configure(p_.paper.sensor);
@@ -160,6 +164,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   // pairings of landmarks that follow a mover) and of the features not in the map.
   bias_test_.test(ctx, &scan_, &result, &paper_, &stats_);
   const std::size_t removed_before = result.remove.size();
+  occlusion_.mark(ctx, &scan_);
   paper_.countMapEvidence(ctx, scan_, &result, &stats_);
   for (std::size_t k = removed_before; k < result.remove.size(); ++k)
     bias_test_.forget(result.remove[k]);

@@ -343,9 +343,14 @@ void DjnnPaper::countMapEvidence(const AssociationContext& ctx, const LocalScan&
       r = model_.step(true, ekf.landmarkCovariance(scan.cand[k]));
     } else {
       const Eigen::Vector2d ps = inSensorFrame(scan, ekf.landmark(scan.cand[k]));
-      // A scan the joint decision held undecided says nothing about which landmark was missed.
+      // A scan the joint decision held undecided says nothing about which landmark was missed;
+      // a landmark the scan shows hidden (the occlusion extension) was out of view.
       if (!scan.held && inPenaltyRegion(ps)) {
-        r = model_.step(false, ekf.landmarkCovariance(scan.cand[k]));
+        if (scan.isHidden(k)) {
+          ++stats->hidden_misses;
+        } else {
+          r = model_.step(false, ekf.landmarkCovariance(scan.cand[k]));
+        }
       }
     }
     it->second = model_.bump(it->second, r);

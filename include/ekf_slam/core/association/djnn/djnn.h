@@ -18,6 +18,8 @@
 //   RememberedFeatures   remembered_sightings, held_birth_cost   holes in the map at closures
 //   LandmarkSpacing      landmark_spacing                duplicates after an over-confident closure
 //   HeldConfirmation     held_confirmations              a closure decided on one scan's noise
+//   OccludedMisses       occlusion_aware_misses          landmarks hidden behind nearer returns
+//                                                        removed as missed
 //
 // associate() reads as the paper's steps with the parts' calls between them.
 #pragma once
@@ -39,6 +41,7 @@
 #include "ekf_slam/core/association/djnn/joint_decision.h"
 #include "ekf_slam/core/association/djnn/landmark_spacing.h"
 #include "ekf_slam/core/association/djnn/local_scan.h"
+#include "ekf_slam/core/association/djnn/occluded_misses.h"
 #include "ekf_slam/core/association/djnn/remembered_features.h"
 #include "ekf_slam/core/association/djnn/shift_test.h"
 #include "ekf_slam/core/association/djnn/static_test.h"
@@ -64,6 +67,7 @@ class DJNN : public DataAssociation, private FeatureRules {
     RememberedFeatures::Params remembered;
     LandmarkSpacing::Params spacing;
     HeldConfirmation::Params confirmation;
+    OccludedMisses::Params occlusion;
   };
 
   DJNN();
@@ -118,6 +122,7 @@ class DJNN : public DataAssociation, private FeatureRules {
   RememberedFeatures remembered_;
   LandmarkSpacing spacing_;
   HeldConfirmation confirmation_;
+  OccludedMisses occlusion_;
 
   LocalScan scan_;
   std::vector<double> pending_new_;    ///< per observation of the last scan: T at admission, or -1

@@ -65,6 +65,8 @@ struct DjnnStats {
   std::uint64_t spacing_refused = 0;
   std::uint64_t held_streaks = 0;       ///< runs of held joint scans that ended
   std::uint64_t held_streak_scans = 0;  ///< scans in those runs
+  /// Misses not counted: the landmark was hidden behind a nearer return (OccludedMisses).
+  std::uint64_t hidden_misses = 0;
 };
 
 /// The paper's parameters (names as read; defaults in docs/djnn.md).
@@ -178,7 +180,8 @@ class DjnnPaper {
                double* mahalanobis) const;
 
   /// 4a. The evidence of the local region's map landmarks: paired ones +r, missed ones inside the
-  /// penalty region -r (none when the scan is held); at remove_evidence into result->remove.
+  /// penalty region -r (none when the scan is held or the landmark is scan.hidden); at
+  /// remove_evidence into result->remove.
   /// Landmarks already in result->remove are skipped.
   void countMapEvidence(const AssociationContext& ctx, const LocalScan& scan,
                         AssociationResult* result, DjnnStats* stats);

@@ -38,12 +38,17 @@ struct LocalScan {
   std::vector<double> winner_score;
   std::vector<char> force_new;  ///< per observation: kForceAdmit, kForceHeld or 0
   bool held = false;            ///< the joint decision held an observation of this scan
+  /// Per candidate: unpaired and hidden behind a nearer return (OccludedMisses); may be empty.
+  std::vector<char> hidden;
   Eigen::Vector2d v_bar = Eigen::Vector2d::Zero();  ///< the compensation that decided (eq. 6-8)
 
   int observations() const { return static_cast<int>(assign.size()); }
   int candidates() const { return static_cast<int>(cand.size()); }
   const AssociationContext::Individual& pair(int obs, int c) const {
     return table[static_cast<std::size_t>(obs) * cand.size() + c];
+  }
+  bool isHidden(int c) const {
+    return static_cast<std::size_t>(c) < hidden.size() && hidden[c] != 0;
   }
   /// The candidate slot of landmark state index j (which must be a candidate).
   int slotOf(int j) const {

@@ -37,6 +37,7 @@ void LostMonitor::reset() {
   restart();
   // Until learned: what the sensor pairs when it sees all in view, twice the share set.
   seen_rate_ = explained_rate_ = 2.0 * config_.lost_min_paired_share;
+  seen_samples_ = explained_samples_ = 1;
 }
 
 double LostMonitor::learnedShare(double rate) const {
@@ -102,12 +103,18 @@ LostMonitor::Verdict LostMonitor::afterUpdate(ScanReport* report) {
   }
   if (share_rule && config_.lost_share_learning_scans > 0) {
     // Learned after the scan is judged, so that it does not excuse itself.
-    const double w = 1.0 / config_.lost_share_learning_scans;
+    // A mean of the scans so far (the prior counts as one), then an exponential one over about
+    // lost_share_learning_scans: a sensor that pairs little from the start is learned within
+    // a few scans, not only after many of them were judged against the prior.
+    const auto learn = [this](double x, double* rate, int* samples) {
+      *samples = std::min(*samples + 1, config_.lost_share_learning_scans);
+      *rate += (x - *rate) / std::max(*samples, 1);
+    };
     if (report->landmarks_expected >= std::max(config_.lost_min_expected, 1))
-      seen_rate_ +=
-          w * (static_cast<double>(established) / report->landmarks_expected - seen_rate_);
+      learn(static_cast<double>(established) / report->landmarks_expected, &seen_rate_,
+            &seen_samples_);
     if (n - recent >= std::max(config_.lost_min_observations, 1))
-      explained_rate_ += w * (static_cast<double>(established) / (n - recent) - explained_rate_);
+      learn(static_cast<double>(established) / (n - recent), &explained_rate_, &explained_samples_);
   }
   // Rule 2: the paired observations persistently disagree with the filter.
   const int paired =

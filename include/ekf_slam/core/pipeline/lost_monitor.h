@@ -77,6 +77,8 @@ class LostMonitor {
   // and of the observations not paired with recent landmarks, paired with established ones.
   double seen_rate_;
   double explained_rate_;
+  int seen_samples_ = 1;  // scans in each mean so far, the prior's one included
+  int explained_samples_ = 1;
   double learnedShare(double rate) const;
 };
 

@@ -45,7 +45,7 @@ ekf_slam_test(test_tree_extractor LIBS ekf_slam_core ekf_slam_victoria_park)
 # The estimator on simulated worlds, and the test bench itself.
 foreach(t test_slam_pipeline test_delayed_sightings test_scan_geometry test_input_sequencer test_pipeline_config
           test_odometry_correction test_recovery test_recovery_window test_refused_lost_rule
-          test_share_lost_rule test_compressed_ekf test_filter_consistency test_aekf_noise_model
+          test_share_lost_rule test_lost_rollback test_compressed_ekf test_filter_consistency test_aekf_noise_model
           test_smoothing_recorder test_simulator test_city_world test_beacon_car_park
           test_association_metrics test_trajectory_metrics test_simulated_run
           test_association_ceiling)

@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "ekf_slam/core/common/parameters.h"
-#include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
+#include "ekf_slam/core/relocalisation/fgcbb.h"
 
 namespace ekf_slam {
 namespace {
@@ -171,6 +171,49 @@ TEST(ShareLostRule, TheShareProbeAgreesWithATrackingFilter) {
   EXPECT_EQ(s.pipeline().counters().lost_events, 0u);
 }
 
+// Rule 1 with lost_min_paired_share 0.45 (half a P_D of 0.9) and its shares learned
+// (lost_share_learning_scans): a filter among landmarks the sensor misses for long (occlusion)
+// pairs 4 of the 8 in view for 100 scans, then 3 for 10. Fixed, 3 of 8 is under the share: lost.
+// Learned, the scans have paired about half: only under about a quarter counts.
+PipelineConfig learnedConfig(int learning_scans) {
+  PipelineConfig config = shareConfig(0);
+  config.lost_min_paired_share = 0.45;
+  config.lost_share_learning_scans = learning_scans;
+  return config;
+}
+
+TEST(ShareLostRule, AFilterPairingHalfForLongIsNotLostWithTheShareLearned) {
+  for (const int learning : {0, 100}) {
+    Scene s(learnedConfig(learning));
+    ASSERT_FALSE(s.run(30, -1));
+    ASSERT_FALSE(s.run(100, 4));
+    EXPECT_EQ(s.run(10, 3), learning == 0) << learning;
+  }
+}
+
+TEST(ShareLostRule, ASensorThatPairsLittleFromTheStartIsLearnedWithinAFewScans) {
+  // Occluded from the moment the landmarks are established: 3 of the 8 in view paired, under
+  // the 0.45 set. Learned as a mean of the scans so far it is about that share within a few
+  // scans; an exponential mean from the prior (0.9) would take about 30, and the filter is lost
+  // at the fifth.
+  Scene s(learnedConfig(100));
+  ASSERT_FALSE(s.run(21, -1));
+  EXPECT_FALSE(s.run(40, 3));
+  EXPECT_EQ(s.pipeline().counters().lost_events, 0u);
+}
+
+TEST(ShareLostRule, TheShareLearnedStillFindsAKidnapAsSoon) {
+  // After the same stretch of occlusion, a kidnapped filter pairing one of 8 by chance: lost at
+  // the fifth scan (lost_unpaired_scans), as with the share fixed after full tracking.
+  for (const int learning : {0, 100}) {
+    Scene s(learnedConfig(learning));
+    ASSERT_FALSE(s.run(30, -1));
+    if (learning > 0) ASSERT_FALSE(s.run(100, 4));
+    EXPECT_FALSE(s.run(4, 1));
+    EXPECT_TRUE(s.run(1, 1)) << learning;
+  }
+}
+
 // lost_recent_informative: landmarks mapped, then 30 scans of 2 observations (fewer than
 // lost_min_observations 3), then a scan that sees all 8. Counted in scans they are established
 // (30 > lost_recent_scans 20) and in view; counted in informative scans they are still recent.
@@ -195,6 +238,9 @@ TEST(ShareLostRule, ParametersAreValidated) {
   EXPECT_THROW(config.validate(), ParameterError);
   config.lost_share_window = 10;
   config.lost_established_share = 1.5;
+  EXPECT_THROW(config.validate(), ParameterError);
+  config.lost_established_share = 0.15;
+  config.lost_share_learning_scans = -1;
   EXPECT_THROW(config.validate(), ParameterError);
 }
 

@@ -19,7 +19,9 @@ LostMonitor::LostMonitor(const PipelineConfig& config, const EkfSlam& filter,
       index_(index),
       model_(model),
       book_(book),
-      nis_chi2_(config.lost_nis_probability, 64) {
+      nis_chi2_(config.lost_nis_probability, 64),
+      seen_rate_(2.0 * config.lost_min_paired_share),
+      explained_rate_(2.0 * config.lost_min_paired_share) {
   // Only the polygon is tested through it: landmarksInView checks the range and the wedge.
   view_.max_range = std::numeric_limits<double>::infinity();
   view_.field_of_view = 2.0 * M_PI;
@@ -29,6 +31,18 @@ LostMonitor::LostMonitor(const PipelineConfig& config, const EkfSlam& filter,
 void LostMonitor::restart() {
   unpaired_streak_ = nis_streak_ = refused_streak_ = 0;
   share_window_.clear();
+}
+
+void LostMonitor::reset() {
+  restart();
+  // Until learned: what the sensor pairs when it sees all in view, twice the share set.
+  seen_rate_ = explained_rate_ = 2.0 * config_.lost_min_paired_share;
+  seen_samples_ = explained_samples_ = 1;
+}
+
+double LostMonitor::learnedShare(double rate) const {
+  const double share = config_.lost_min_paired_share;
+  return config_.lost_share_learning_scans > 0 ? std::min(share, 0.5 * rate) : share;
 }
 
 int LostMonitor::landmarksInView(std::uint32_t scans) const {
@@ -72,10 +86,12 @@ LostMonitor::Verdict LostMonitor::afterUpdate(ScanReport* report) {
   // Nor is a scan unpaired whose observations the established map explains: of those not
   // explained by recent landmarks (new ground being mapped), at least the share. Landmarks in view
   // that are never seen again (movers an associator mapped) then do not make a tracking filter
-  // lost. With a share of 0 the first test always holds.
-  const double share = config_.lost_min_paired_share;
-  if (established > 0 &&
-      (established >= share * report->landmarks_expected || established >= share * (n - recent))) {
+  // lost. With a share of 0 the first test always holds. The shares as learned (at most the one
+  // set): what these scans have paired, not what the sensor's datasheet promises.
+  const double seen_share = learnedShare(seen_rate_);
+  const double explained_share = learnedShare(explained_rate_);
+  if (established > 0 && (established >= seen_share * report->landmarks_expected ||
+                          established >= explained_share * (n - recent))) {
     unpaired_streak_ = 0;
   } else if (n >= config_.lost_min_observations &&
              (!share_rule ||
@@ -84,6 +100,21 @@ LostMonitor::Verdict LostMonitor::afterUpdate(ScanReport* report) {
     // landmarks in view: two or three cannot tell a kidnap from misses, an associator holding
     // back, or new ground.)
     ++unpaired_streak_;
+  }
+  if (share_rule && config_.lost_share_learning_scans > 0) {
+    // Learned after the scan is judged, so that it does not excuse itself.
+    // A mean of the scans so far (the prior counts as one), then an exponential one over about
+    // lost_share_learning_scans: a sensor that pairs little from the start is learned within
+    // a few scans, not only after many of them were judged against the prior.
+    const auto learn = [this](double x, double* rate, int* samples) {
+      *samples = std::min(*samples + 1, config_.lost_share_learning_scans);
+      *rate += (x - *rate) / std::max(*samples, 1);
+    };
+    if (report->landmarks_expected >= std::max(config_.lost_min_expected, 1))
+      learn(static_cast<double>(established) / report->landmarks_expected, &seen_rate_,
+            &seen_samples_);
+    if (n - recent >= std::max(config_.lost_min_observations, 1))
+      learn(static_cast<double>(established) / (n - recent), &explained_rate_, &explained_samples_);
   }
   // Rule 2: the paired observations persistently disagree with the filter.
   const int paired =
@@ -135,7 +166,7 @@ LostMonitor::Verdict LostMonitor::afterUpdate(ScanReport* report) {
   }
   if (rule1 || rule4) {
     if (rule1) {
-      report->lost_reason = (share_rule ? "under " + std::to_string(config_.lost_min_paired_share) +
+      report->lost_reason = (share_rule ? "under " + std::to_string(learnedShare(seen_rate_)) +
                                               " of the established landmarks in view paired for "
                                         : std::string("no established landmark paired for ")) +
                             std::to_string(unpaired_streak_) + " scans, " +
@@ -155,6 +186,23 @@ LostMonitor::Verdict LostMonitor::afterUpdate(ScanReport* report) {
   // place the filter takes for new ground. The relocaliser tells them apart: a confident pose in
   // the established map that the filter's estimate does not cover is a kidnap.
   return unpaired || share_probe ? Verdict::kProbe : Verdict::kTracking;
+}
+
+bool LostMonitor::suspect(const ScanReport& report, int* established) const {
+  const AssociationResult& a = report.association;
+  const int n = static_cast<int>(report.observations.size());
+  const std::uint32_t scans = report.scan + 1;
+  int recent = 0;
+  *established = 0;
+  for (std::size_t i = 0; i < a.decision.size(); ++i) {
+    if (a.decision[i] != Decision::kPaired) continue;
+    (book_.recent(a.landmark[i], scans) ? recent : *established) += 1;
+  }
+  if (n < std::max(config_.lost_min_observations, 1)) return false;
+  // What rule 4 counts on one scan, or what rule 1 counts as unpaired.
+  const bool low = *established == 0 || *established < config_.lost_established_share * n ||
+                   *established < config_.lost_min_paired_share * (n - recent);
+  return low && landmarksInView(scans) > 0;
 }
 
 LostMonitor::Refusal LostMonitor::refused(const ScanReport& report, std::string* reason) {

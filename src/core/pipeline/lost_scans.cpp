@@ -41,6 +41,14 @@ void LostScans::dropFrom(std::uint32_t scan) {
   }
 }
 
+void LostScans::reanchor(const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
+  const Eigen::Vector3d t = composePose(to, inversePose(from));
+  for (Scan& s : scans_) {
+    s.pose = composePose(t, s.pose);
+    s.pose.z() = wrapAngle(s.pose.z());
+  }
+}
+
 namespace {
 
 // The vehicle state moved from the later scan's pose back to `s`: x_s = x_later (+) delta, delta

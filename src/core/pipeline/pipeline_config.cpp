@@ -104,6 +104,7 @@ void PipelineConfig::validate() const {
   count(lost_min_expected, "lost_min_expected");
   requireParameter(lost_min_paired_share >= 0.0 && lost_min_paired_share <= 1.0,
                    "lost_min_paired_share", "must lie in [0, 1]", lost_min_paired_share);
+  count(lost_share_learning_scans, "lost_share_learning_scans");
   count(lost_recent_scans, "lost_recent_scans");
   nonNegative(lost_view_range, "lost_view_range");
   requireParameter(lost_field_of_view > 0.0 && lost_field_of_view <= 2.0 * M_PI,
@@ -240,6 +241,8 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_min_observations = r.integer("lost_min_observations", c.lost_min_observations, 0, 100000);
   c.lost_min_expected = r.integer("lost_min_expected", c.lost_min_expected, 0, 100000);
   c.lost_min_paired_share = r.inRange("lost_min_paired_share", c.lost_min_paired_share, 0.0, 1.0);
+  c.lost_share_learning_scans =
+      r.integer("lost_share_learning_scans", c.lost_share_learning_scans, 0, 100000);
   c.lost_recent_scans = r.integer("lost_recent_scans", c.lost_recent_scans, 0, 100000);
   c.lost_recent_informative = r.flag("lost_recent_informative", c.lost_recent_informative);
   c.lost_view_range = r.nonNegative("lost_view_range", c.lost_view_range);
@@ -278,6 +281,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.relocalisation_window_scans =
       r.integer("relocalisation_window_scans", c.relocalisation_window_scans, 1, 100);
   c.lost_map_scans = r.flag("lost_map_scans", c.lost_map_scans);
+  c.lost_rollback = r.flag("lost_rollback", c.lost_rollback);
   c.lost_map_pair_probability =
       r.probability("lost_map_pair_probability", c.lost_map_pair_probability);
   c.lost_map_new_probability =

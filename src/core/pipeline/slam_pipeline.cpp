@@ -75,7 +75,8 @@ void SlamPipeline::reset() {
   motion_.reset();
   observations_.reset();
   recovery_.reset();
-  monitor_.restart();
+  monitor_.reset();
+  checkpoint_.drop();
   ++counters_.resets;
 }
 
@@ -159,6 +160,7 @@ void SlamPipeline::applyPendingMotion() const {
   if (!motion_.pending()) return;
   const MotionStep& step = motion_.step();
   recovery_.carry(step);
+  if (checkpoint_.held) checkpoint_.scans.carry(step);
   motion_.applied();  // reads the filter's pose before the step
   filter_.predict(step);
 }
@@ -188,7 +190,9 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
     return report;
   }
   book_.countScan(static_cast<int>(report.observations.size()) >= config_.lost_min_observations);
+  if (recovery_.active()) updateCheckpoint(report);
   mapper_.apply(*associator_, {}, &report);
+  if (checkpoint_.held) checkpoint_.scans.add(report.scan, motion_.odometry(), report.observations);
   if (recovery_.active()) checkLost(&report);
   recovery_.rememberPose(report);  // went lost at this scan: its pose is carried back at the fix
   return report;
@@ -293,10 +297,100 @@ void SlamPipeline::probe(ScanReport* report) {
 }
 
 void SlamPipeline::goLost(ScanReport* report) {
+  LostScans rolled_back;
+  if (checkpoint_.held) {
+    rollBack(report);
+    rolled_back = std::move(checkpoint_.scans);
+  }
+  checkpoint_.drop();
   discardRecent(report);
   ++counters_.lost_events;
   report->became_lost = true;
   enterLost();
+  if (!rolled_back.empty() && config_.lost_map_scans)
+    recovery_.keepLostScans(std::move(rolled_back));
+  if (report->rolled_back_scans > 0)
+    report->lost_reason +=
+        "; map rolled back " + std::to_string(report->rolled_back_scans) + " scans";
+}
+
+void SlamPipeline::updateCheckpoint(const ScanReport& report) {
+  // The filter cekf would need a global update to copy its state: no checkpoint.
+  if (!config_.lost_rollback || mapFrozen() || filter_.compressed()) return;
+  int established = 0;
+  const bool suspect = monitor_.suspect(report, &established);
+  const std::int64_t now =
+      config_.lost_recent_informative ? book_.informativeScans() : std::int64_t{report.scan};
+  if (checkpoint_.held) {
+    checkpoint_.established += established;
+    checkpoint_.observations += static_cast<int>(report.observations.size());
+    // A kidnap is taken to have happened at most lost_recent_scans ago (as discardRecent does);
+    // and scans that pair well again (rule 4's share over those since) end the doubt.
+    const bool well = !suspect && checkpoint_.established >=
+                                      config_.lost_established_share * checkpoint_.observations;
+    if (well || now - checkpoint_.origin > config_.lost_recent_scans) checkpoint_.drop();
+  }
+  if (checkpoint_.held || !suspect) return;
+  const EkfSlam& ekf = filter_.ekf();
+  const Eigen::Index n = ekf.mapEnd();
+  checkpoint_.mean = ekf.mean().head(n);
+  checkpoint_.covariance = ekf.storedCovariance().topLeftCorner(n, n);
+  checkpoint_.ids = ekf.landmarkIds();
+  checkpoint_.book = book_.entries();
+  for (const LandmarkId id : ekf.landmarkIds())
+    checkpoint_.evidence[id] = associator_->evidence(id);
+  checkpoint_.held = true;
+  checkpoint_.scan = report.scan;
+  checkpoint_.origin = now;
+  checkpoint_.established = established;
+  checkpoint_.observations = static_cast<int>(report.observations.size());
+}
+
+void SlamPipeline::rollBack(ScanReport* report) {
+  delayed_.clear();  // its clones leave the state (their poses are in doubt as well)
+  EkfSlam& ekf = filter_.ekf();
+  const Eigen::Vector3d pose = ekf.pose();
+  const std::vector<LandmarkId> before = ekf.landmarkIds();
+  if (checkpoint_.mean.size() != 3 + ekf.correctionDim() + 2 * Eigen::Index(checkpoint_.ids.size()))
+    return;
+  // The correction states and the landmarks as they were (those made since go, those dropped
+  // since come back); the pose keeps its estimate, uncorrelated with them: it was estimated with
+  // what is undone, and a fix replaces it anyway.
+  Eigen::VectorXd mean = checkpoint_.mean;
+  mean.head<3>() = pose;
+  Eigen::MatrixXd P = checkpoint_.covariance.selfadjointView<Eigen::Lower>();
+  const Eigen::Index n = P.rows();
+  P.topLeftCorner<3, 3>() = ekf.poseCovariance();
+  P.topRightCorner(3, n - 3).setZero();
+  P.bottomLeftCorner(n - 3, 3).setZero();
+  // setState numbers new landmarks after its largest id: ids made since must not come again.
+  const LandmarkId next = ekf.insertLandmark(Eigen::Vector2d::Zero(), Eigen::Matrix2d::Identity());
+  ekf.setState(mean, P, checkpoint_.ids);
+  ekf.insertLandmark(Eigen::Vector2d::Zero(), Eigen::Matrix2d::Identity(), next);
+  ekf.removeLandmark(next);
+  filter_.restart();
+  // Made since: gone with the scans that made them (the lost scans map them again at a fix).
+  for (const LandmarkId id : before) {
+    if (ekf.contains(id)) continue;
+    book_.erase(id);
+    report->removed.push_back(id);
+    ++counters_.discarded_landmarks;
+  }
+  // The checkpoint's bookkeeping; dropped since (missed from the wrong pose): back, with the
+  // associator's evidence as it was.
+  for (const LandmarkId id : ekf.landmarkIds()) {
+    const auto info = checkpoint_.book.find(id);
+    if (info != checkpoint_.book.end()) book_.loaded(id, info->second);
+    const auto e = checkpoint_.evidence.find(id);
+    const int evidence = e == checkpoint_.evidence.end() ? 0 : e->second;
+    if (std::find(before.begin(), before.end(), id) == before.end() ||
+        associator_->evidence(id) < evidence)
+      associator_->landmarkLoaded(id, static_cast<std::uint32_t>(std::max(evidence, 0)));
+  }
+  index_.sync(ekf);
+  // The scans since, placed by their odometry back from the current estimate.
+  checkpoint_.scans.reanchor(motion_.odometry(), pose);
+  report->rolled_back_scans = static_cast<int>(report->scan - checkpoint_.scan + 1);
 }
 
 void SlamPipeline::enterLost(bool pose_unknown) {

@@ -37,6 +37,8 @@ class LandmarkBook {
   void loaded(LandmarkId id, const LandmarkInfo& info) { info_[id] = info; }
   void erase(LandmarkId id) { info_.erase(id); }
   void clear() { info_.clear(); }
+  /// Every landmark's entry (a checkpoint's copy).
+  const std::unordered_map<LandmarkId, LandmarkInfo>& entries() const { return info_; }
 
   /// A tracked scan with at least lost_min_observations observations (lost_recent_informative).
   void countScan(bool informative) { informative_scans_ += informative; }

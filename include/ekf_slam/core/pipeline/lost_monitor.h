@@ -41,12 +41,18 @@ class LostMonitor {
   /// Rules 1, 2 and 4 after a tracked scan's update; kLost sets report->lost_reason. Fills
   /// report->landmarks_expected where a rule needed it.
   Verdict afterUpdate(ScanReport* report);
+  /// Before a tracked scan's update: it pairs under lost_established_share of its observations
+  /// (or none, or rule 1's share) with established landmarks while some are in view: a kidnap
+  /// may have begun (lost_rollback). *established: its observations paired with them.
+  bool suspect(const ScanReport& report, int* established) const;
   /// Rule 3 on a scan's association, before it is applied; *reason says why for kProbe.
   Refusal refused(const ScanReport& report, std::string* reason);
   /// The relocaliser agreed with the estimate on rule 3's probe: the streak ends.
   void refusalAnswered() { refused_streak_ = 0; }
-  /// Going lost (or a reset): every streak starts again.
+  /// Going lost: every streak starts again.
   void restart();
+  /// A new run: also the learned shares (lost_share_learning_scans) start again.
+  void reset();
   /// Tracking resumes (relocalised, or lost too long): rules 1 and 2 start again.
   void resume() { unpaired_streak_ = nis_streak_ = 0; }
 
@@ -67,6 +73,13 @@ class LostMonitor {
   int nis_streak_ = 0;
   int refused_streak_ = 0;
   std::deque<std::pair<int, int>> share_window_;  // rule 4: (established paired, observations)
+  // Rule 1 with lost_min_paired_share: the learned shares of the established landmarks in view,
+  // and of the observations not paired with recent landmarks, paired with established ones.
+  double seen_rate_;
+  double explained_rate_;
+  int seen_samples_ = 1;  // scans in each mean so far, the prior's one included
+  int explained_samples_ = 1;
+  double learnedShare(double rate) const;
 };
 
 }  // namespace ekf_slam

@@ -45,6 +45,9 @@ class LostScans {
   void carry(const MotionStep& step);
   /// Forgets the scans from `scan` on (those a fix already used), their odometry kept.
   void dropFrom(std::uint32_t scan);
+  /// Moves every pose by the motion that takes `from` to `to` (scans kept at odometry poses,
+  /// then placed at the estimate).
+  void reanchor(const Eigen::Vector3d& from, const Eigen::Vector3d& to);
 
  private:
   std::deque<Scan> scans_;

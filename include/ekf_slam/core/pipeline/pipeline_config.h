@@ -82,6 +82,12 @@ struct PipelineConfig {
   /// resets the count when the share is 0. The observations' share keeps a filter that explains
   /// what it sees from counting stale landmarks (movers an associator mapped) as missed.
   double lost_min_paired_share = 0.0;
+  /// With lost_min_paired_share > 0, both shares are learned while tracking: each is the mean of
+  /// what the scans paired over about this many scans (an exponential mean), and a scan counts
+  /// as unpaired below half of it (at most lost_min_paired_share). Landmarks the sensor misses
+  /// for long (occlusion) then lower what counts as unpaired; a kidnap pairs almost none. 0: the
+  /// shares stay lost_min_paired_share.
+  int lost_share_learning_scans = 100;
   /// Landmarks created fewer than this many scans ago are "recent": pairing them does not count
   /// for rule 1, they are not "in view", and they are discarded when the pipeline goes lost.
   int lost_recent_scans = 20;
@@ -150,6 +156,11 @@ struct PipelineConfig {
   double lost_map_pair_probability = 0.99;
   double lost_map_new_probability = 0.9999;
   int lost_map_min_sightings = 3;
+  /// Before a scan that pairs few of its observations with established landmarks (LostMonitor::
+  /// suspect) the map is kept; at a lost event the map goes back to it and the scans since become
+  /// lost scans (docs/relocalisation.md, "Rolling back to before the kidnap"). false: the scans
+  /// tracked before the lost event keep what they did to the map.
+  bool lost_rollback = true;
   double lost_nis_probability = 0.999;
 
   /// The filter: "ekf" (every step on the whole state) or "cekf", the compressed EKF

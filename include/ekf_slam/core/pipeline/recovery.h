@@ -67,6 +67,8 @@ class Recovery {
     seen_while_lost_.clear();
     return out;
   }
+  /// Just gone lost: tracked scans whose updates were undone (a rollback) join the lost scans.
+  void keepLostScans(LostScans scans) { seen_while_lost_ = std::move(scans); }
   /// A window's older pairings, carried into the current scan, for the fix's update.
   std::vector<Pairing> takeWindowPairings();
   /// The pipeline applied a fix (the pose was `dead_reckoned` before): tracking resumes, and

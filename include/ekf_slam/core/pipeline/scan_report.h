@@ -105,6 +105,9 @@ struct ScanReport {
   int lost_map_pairings = 0;
   /// lost_max_scans reached at this scan: tracking resumed from the dead-reckoned estimate.
   bool lost_timeout = false;
+  /// Went lost with a checkpoint held (lost_rollback): the scans since it, this one included,
+  /// whose updates were undone.
+  int rolled_back_scans = 0;
   RelocalisationResult relocalisation;  ///< of the attempt
   double relocalisation_s = 0.0;        ///< wall time of the relocaliser call
   int landmarks_expected = 0;           ///< map landmarks in view (lost rule 1), when tracking

@@ -34,6 +34,7 @@
 #include "ekf_slam/core/pipeline/delayed_sightings.h"
 #include "ekf_slam/core/pipeline/landmark_book.h"
 #include "ekf_slam/core/pipeline/lost_monitor.h"
+#include "ekf_slam/core/pipeline/map_checkpoint.h"
 #include "ekf_slam/core/pipeline/map_updater.h"
 #include "ekf_slam/core/pipeline/motion_predictor.h"
 #include "ekf_slam/core/pipeline/observation_builder.h"
@@ -188,6 +189,11 @@ class SlamPipeline {
   void enterLost(bool pose_unknown = false);
   /// Removes the recent landmarks (they may come from a wrong pose).
   void discardRecent(ScanReport* report);
+  /// Before a tracked scan's update: keeps the map before a suspect scan, drops it once the scans
+  /// since pair well again or it is older than lost_recent_scans (lost_rollback).
+  void updateCheckpoint(const ScanReport& report);
+  /// Going lost with a checkpoint held: the map as it was, the scans since kept as lost scans.
+  void rollBack(ScanReport* report);
   /// Replaces the pose with a relocaliser's fix and updates with its pairings
   /// (docs/relocalisation.md); the scans processed while lost get their re-derived poses.
   void applyFix(const RelocalisationResult& fix, ScanReport* report);
@@ -211,6 +217,8 @@ class SlamPipeline {
   MapUpdater mapper_;
   LostMonitor monitor_;
   mutable Recovery recovery_;
+  // mutable: the odometry since carries its scans along (applyPendingMotion).
+  mutable MapCheckpoint checkpoint_;
   std::uint32_t scans_ = 0;
 };
 

@@ -15,47 +15,12 @@
 #include <vector>
 
 #include "ekf_slam/core/common/parameters.h"
-#include "ekf_slam/core/pipeline/slam_pipeline.h"
-#include "ekf_slam/core/relocalisation/fgcbb.h"
+#include "lost_scene.h"
 
 namespace ekf_slam {
 namespace {
 
-constexpr int kLandmarks = 8;
-
-// Maps every observation at the first scan, then pairs the first `paired` observations with the
-// landmarks they started (all of them when `paired` < 0) and rejects the others.
-class Scripted : public DataAssociation {
- public:
-  void configure(const ParameterSource&) override {}
-  std::string name() const override { return "Scripted"; }
-  AssociationResult associate(const AssociationContext& context) override {
-    AssociationResult r;
-    const std::size_t n = context.observations().size();
-    r.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (ids_.size() < n) {
-        r.decision[i] = Decision::kNew;
-      } else if (paired < 0 || static_cast<int>(i) < paired) {
-        r.pair(i, ids_[i]);
-      }
-    }
-    return r;
-  }
-  void landmarkAdded(int obs, LandmarkId id) override {
-    ids_.resize(std::max<std::size_t>(ids_.size(), obs + 1), kNoLandmark);
-    ids_[obs] = id;
-  }
-  void reset() override { ids_.clear(); }
-  int paired = -1;
-
- private:
-  std::vector<LandmarkId> ids_;
-};
-
-// An irregular patch of trees ahead (no symmetry a relocaliser could confuse), x forward.
-const Eigen::Vector2d kTrees[kLandmarks] = {{8.0, -1.2}, {9.5, -0.3},  {7.0, 0.4},  {11.0, 1.5},
-                                            {6.5, 2.5},  {10.0, -2.8}, {12.5, 0.9}, {8.8, 3.6}};
+using lost_scene::kLandmarks;
 
 PipelineConfig shareConfig(int share_window) {
   PipelineConfig config;
@@ -63,43 +28,11 @@ PipelineConfig shareConfig(int share_window) {
   return config;
 }
 
-// A stationary vehicle at the origin that sees the kLandmarks trees, exactly.
-class Scene {
+// The scene of lost_scene.h, configured with rule 4's window.
+class Scene : public lost_scene::Scene {
  public:
-  explicit Scene(int share_window) : Scene(shareConfig(share_window)) {}
-  explicit Scene(const PipelineConfig& config) {
-    associator_ = std::make_shared<Scripted>();
-    pipeline_ = std::make_unique<SlamPipeline>(config, associator_);
-    pipeline_->setRelocaliser(std::make_shared<FGCBB>());
-  }
-  /// `scans` scans of the first `seen` trees, each pairing `paired` observations (< 0: all); true
-  /// if it went lost.
-  bool run(int scans, int paired, int seen = kLandmarks) {
-    associator_->paired = paired;
-    bool lost = false;
-    for (int k = 0; k < scans && !lost; ++k) {
-      t_ += 0.2;
-      OdometryInput o;
-      o.stamp = t_;
-      pipeline_->addOdometry(o);
-      std::vector<Observation> obs(seen);
-      for (int i = 0; i < seen; ++i) {
-        obs[i].z = Eigen::Vector2d(kTrees[i].norm(), std::atan2(kTrees[i].y(), kTrees[i].x()));
-        obs[i].R = Eigen::Vector2d(0.01, 1e-4).asDiagonal();
-      }
-      last_ = pipeline_->processObservations(t_, obs);
-      lost = last_.became_lost;
-    }
-    return lost;
-  }
-  SlamPipeline& pipeline() { return *pipeline_; }
-  const ScanReport& last() const { return last_; }
-
- private:
-  double t_ = 0.0;
-  ScanReport last_;
-  std::shared_ptr<Scripted> associator_;
-  std::unique_ptr<SlamPipeline> pipeline_;
+  explicit Scene(int share_window) : lost_scene::Scene(shareConfig(share_window)) {}
+  explicit Scene(const PipelineConfig& config) : lost_scene::Scene(config) {}
 };
 
 TEST(ShareLostRule, OneChancePairingAScanAmongManyInViewGoesLost) {
@@ -208,7 +141,9 @@ TEST(ShareLostRule, TheShareLearnedStillFindsAKidnapAsSoon) {
   for (const int learning : {0, 100}) {
     Scene s(learnedConfig(learning));
     ASSERT_FALSE(s.run(30, -1));
-    if (learning > 0) ASSERT_FALSE(s.run(100, 4));
+    if (learning > 0) {
+      ASSERT_FALSE(s.run(100, 4));
+    }
     EXPECT_FALSE(s.run(4, 1));
     EXPECT_TRUE(s.run(1, 1)) << learning;
   }

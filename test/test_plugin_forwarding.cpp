@@ -172,6 +172,7 @@ class RecordingExtractor : public FeatureExtractor {
   std::string name() const override { return "Recording"; }
   bool needsIntensities() const override { return true; }
   double featureRadius() const override { return 0.25; }
+  double thinnestFeatureRadius() const override { return 0.05; }
   void checkScan(const LaserScanData& scan) const override {
     calls.push_back("checkScan " + std::to_string(scan.ranges.size()));
   }
@@ -183,13 +184,14 @@ class RecordingExtractor : public FeatureExtractor {
 
 TEST(PluginForwarding, ExtractorWrapperForwardsEveryHook) {
   expectEveryVirtualForwarded("core/feature_extraction/feature_extractor.h", "FeatureExtractor",
-                              "ForwardingFeatureExtractor", 6);
+                              "ForwardingFeatureExtractor", 7);
   auto inner = std::make_shared<RecordingExtractor>();
   ForwardingFeatureExtractor wrapper(inner);
   wrapper.configure(MapParameterSource());
   EXPECT_EQ(wrapper.name(), "Recording");
   EXPECT_TRUE(wrapper.needsIntensities());
   EXPECT_EQ(wrapper.featureRadius(), 0.25);
+  EXPECT_EQ(wrapper.thinnestFeatureRadius(), 0.05);
   LaserScanData scan;
   scan.ranges.assign(3, 1.0f);
   wrapper.checkScan(scan);

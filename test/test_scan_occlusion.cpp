@@ -1,6 +1,8 @@
 // ScanOcclusion (a point is hidden when every beam that could have hit it returned clearly short
 // of it) and DJNN's occlusion-aware misses: a landmark hidden behind a nearer return is not
-// counted as missed, so it is not removed while hidden (issue 31, `beacons`). docs/djnn.md.
+// counted as missed, so it is not removed while hidden (issue 31, `beacons`). And the beams'
+// spacing: a thin pole far away falls between them in some scans (ScanOcclusion::hitProbability,
+// DJNN's beam_spacing_misses). docs/djnn.md.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -139,6 +141,77 @@ TEST(ScanOcclusion, DjnnKeepsALandmarkHiddenBehindANearerReturn) {
   LaserScanData behind = emptyScan();  // a return behind the landmark: it should have been seen
   wall(&behind, 0.0, 4 * kDeg, 30.0f);
   EXPECT_EQ(removedAt({}, &behind, &t), 1);
+}
+
+TEST(ScanOcclusion, HitProbabilityIsTheAngleAPoleSpansOverTheBeamSpacing) {
+  const LaserScanData scan = emptyScan();  // 0.5 deg beams
+  const ScanOcclusion pole(scan, 0.25, 0.03, 0.05);
+  EXPECT_DOUBLE_EQ(pole.hitProbability(5.0), 1.0);  // 1.15 deg across: always hit
+  EXPECT_NEAR(pole.hitProbability(20.0), 2.0 * std::asin(0.05 / 20.0) / (0.5 * kDeg), 1e-12);
+  EXPECT_NEAR(pole.hitProbability(20.0), 0.573, 1e-3);
+  EXPECT_NEAR(pole.hitProbability(30.0), 0.382, 1e-3);
+  EXPECT_LT(pole.hitProbability(30.0), pole.hitProbability(20.0));
+  // Unknown size, no scan, bad input: every feature is taken to be hit (the paper's P_D).
+  EXPECT_EQ(ScanOcclusion(scan, 0.25, 0.03).hitProbability(30.0), 1.0);
+  EXPECT_EQ(ScanOcclusion().hitProbability(30.0), 1.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(pole.hitProbability(nan), 1.0);
+  EXPECT_EQ(pole.hitProbability(0.01), 1.0);  // inside the pole
+  EXPECT_EQ(ScanOcclusion(scan, 0.25, 0.03, nan).hitProbability(30.0), 1.0);
+  EXPECT_EQ(ScanOcclusion(scan, 0.25, 0.03, -1.0).hitProbability(30.0), 1.0);
+}
+
+// A pole of 0.05 m radius 25 m ahead falls between the 0.5 deg beams in about half the scans
+// (hit probability 0.46): here it is seen in one scan of three, b every scan, for 36 scans. The
+// paper's counter (+1 / -1) removes the mapped pole after five scans, and drops a new one after
+// its first miss, so it never reaches the map. With beam_spacing_misses its P_D is 0.46 there
+// (steps +1.54 / -0.46, +0.62 every three scans): the mapped pole stays, the new one is
+// admitted at its tenth sighting (scan 27).
+struct PoleRun {
+  int removed_at = -1;   ///< scan of the mapped pole's removal, or -1
+  int admitted_at = -1;  ///< scan at which the new pole joined the map, or -1
+};
+
+PoleRun farPole(const std::map<std::string, std::string>& params, double thinnest_radius,
+                bool mapped) {
+  Scene s;
+  const int b = s.addLandmark({12, 6});
+  const Eigen::Vector2d pole(25, -3);
+  const int a = mapped ? s.addLandmark(pole) : -1;
+  s.build();
+  std::map<std::string, std::string> p = {{"admit_evidence", "7"}};
+  for (const auto& kv : params) p[kv.first] = kv.second;
+  DJNN d = makeDjnn(p);
+  const LaserScanData open = emptyScan();
+  const ScanOcclusion occlusion(open, 0.05, 0.03, thinnest_radius);
+  PoleRun run;
+  for (int k = 0; k < 36; ++k) {
+    s.observations.clear();
+    s.truth.clear();
+    s.observeLandmark(b);
+    const bool seen = k % 3 == 0;
+    const int obs = !seen ? -1 : mapped ? s.observeLandmark(a) : s.observePoint(pole);
+    const AssociationContext ctx(s.ekf, s.model, s.index, s.observations, k, &occlusion);
+    const AssociationResult r = d.associate(ctx);
+    if (mapped && std::find(r.remove.begin(), r.remove.end(), Scene::idOf(a)) != r.remove.end()) {
+      run.removed_at = k;
+      return run;
+    }
+    if (!mapped && obs >= 0 && r.decision[obs] == Decision::kNew) {
+      run.admitted_at = k;
+      return run;
+    }
+  }
+  return run;
+}
+
+TEST(ScanOcclusion, DjnnGivesAFarThinPoleTheDetectionProbabilityOfItsBeams) {
+  EXPECT_EQ(farPole({}, 0.05, true).removed_at, -1);
+  EXPECT_EQ(farPole({}, 0.0, true).removed_at, 5);  // size unknown: the paper's
+  EXPECT_EQ(farPole({{"beam_spacing_misses", "false"}}, 0.05, true).removed_at, 5);
+  EXPECT_EQ(farPole({}, 0.05, false).admitted_at, 27);
+  EXPECT_EQ(farPole({}, 0.0, false).admitted_at, -1);
+  EXPECT_EQ(farPole({{"beam_spacing_misses", "false"}}, 0.05, false).admitted_at, -1);
 }
 
 }  // namespace

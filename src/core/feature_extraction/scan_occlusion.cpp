@@ -7,7 +7,8 @@
 
 namespace ekf_slam {
 
-void ScanOcclusion::assign(const LaserScanData& scan, double feature_radius, double range_sigma) {
+void ScanOcclusion::assign(const LaserScanData& scan, double feature_radius, double range_sigma,
+                           double thinnest_radius) {
   ranges_ = scan.ranges;
   angle_min_ = scan.angle_min;
   angle_increment_ = scan.angle_increment;
@@ -16,6 +17,16 @@ void ScanOcclusion::assign(const LaserScanData& scan, double feature_radius, dou
   // Bad values make every query "not hidden" below (the caller's behaviour without occlusion).
   feature_radius_ = std::isfinite(feature_radius) ? std::max(0.0, feature_radius) : 0.0;
   range_var_ = std::isfinite(range_sigma) ? range_sigma * range_sigma : 0.0;
+  thinnest_radius_ = std::isfinite(thinnest_radius) ? std::max(0.0, thinnest_radius) : 0.0;
+}
+
+double ScanOcclusion::hitProbability(double range) const {
+  const double spacing = std::fabs(angle_increment_);
+  if (ranges_.empty() || !(thinnest_radius_ > 0.0) || !std::isfinite(spacing) || !(spacing > 0.0) ||
+      !std::isfinite(range) || !(range > thinnest_radius_)) {
+    return 1.0;
+  }
+  return std::min(1.0, 2.0 * std::asin(thinnest_radius_ / range) / spacing);
 }
 
 bool ScanOcclusion::occluded(double range, double bearing, double range_var, double bearing_var,

@@ -137,7 +137,8 @@ ScanReport SlamPipeline::processScan(double stamp, const LaserScanData& input) {
   }
   // What the scan hid, for an associator that must not count a hidden landmark as missed. The
   // configured range noise stands for a beam's (it is the observations' default).
-  occlusion_.assign(scan, observations_.extractor().featureRadius(), config_.sigma_range);
+  occlusion_.assign(scan, observations_.extractor().featureRadius(), config_.sigma_range,
+                    observations_.extractor().thinnestFeatureRadius());
   return associateAndUpdate(report.stamp, std::move(observations), std::move(report), &occlusion_);
 }
 

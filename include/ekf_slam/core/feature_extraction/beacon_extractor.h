@@ -45,6 +45,8 @@ class BeaconExtractor : public FeatureExtractor {
   bool needsIntensities() const override { return true; }
   /// The pole's radius, or half the widest group kept (its hits lie within that of its centre).
   double featureRadius() const override { return std::max(p_.beacon_radius, 0.5 * p_.max_width); }
+  /// The poles' radius (beacon_radius; 0, point reflectors: unknown).
+  double thinnestFeatureRadius() const override { return p_.beacon_radius; }
   /// Throws ScanFormatError for a scan without (or with a wrong number of) intensities.
   void checkScan(const LaserScanData& scan) const override;
   /// Observations with R from the group (docs/feature_extraction.md), descriptor = width.

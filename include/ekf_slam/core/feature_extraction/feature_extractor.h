@@ -57,6 +57,11 @@ class FeatureExtractor {
   /// trunk's or a beacon's largest radius) [m]: a nearer return at its bearing hides it
   /// (ScanOcclusion). The default, 0, is a point.
   virtual double featureRadius() const { return 0.0; }
+  /// The radius of the thinnest feature reported, when the configuration states it (a beacon
+  /// pole's) [m]. Beyond the range where the beams are farther apart than that, such a feature is
+  /// hit in only some scans (ScanOcclusion::hitProbability). The default, 0, is unknown: every
+  /// feature in view is taken to be hit.
+  virtual double thinnestFeatureRadius() const { return 0.0; }
 
   /// Throws ScanFormatError when the scan cannot be used by this extractor at all (checked
   /// before the scan changes any state). The default accepts every scan.
@@ -79,6 +84,7 @@ class ForwardingFeatureExtractor : public FeatureExtractor {
   std::string name() const override { return inner_->name(); }
   bool needsIntensities() const override { return inner_->needsIntensities(); }
   double featureRadius() const override { return inner_->featureRadius(); }
+  double thinnestFeatureRadius() const override { return inner_->thinnestFeatureRadius(); }
   void checkScan(const LaserScanData& scan) const override { inner_->checkScan(scan); }
   std::vector<Observation> extract(const LaserScanData& scan) const override {
     return inner_->extract(scan);

@@ -15,12 +15,16 @@ class ScanOcclusion {
  public:
   ScanOcclusion() = default;
   /// `feature_radius`: how far in front of a feature's reported position its own surface can
-  /// return a beam (FeatureExtractor::featureRadius); `range_sigma`: std dev of one beam's range.
-  ScanOcclusion(const LaserScanData& scan, double feature_radius, double range_sigma) {
-    assign(scan, feature_radius, range_sigma);
+  /// return a beam (FeatureExtractor::featureRadius); `range_sigma`: std dev of one beam's range;
+  /// `thinnest_radius`: the thinnest feature's radius (FeatureExtractor::thinnestFeatureRadius),
+  /// 0 when unknown.
+  ScanOcclusion(const LaserScanData& scan, double feature_radius, double range_sigma,
+                double thinnest_radius = 0.0) {
+    assign(scan, feature_radius, range_sigma, thinnest_radius);
   }
   /// The same, reusing the buffers (one per pipeline, refilled every scan).
-  void assign(const LaserScanData& scan, double feature_radius, double range_sigma);
+  void assign(const LaserScanData& scan, double feature_radius, double range_sigma,
+              double thinnest_radius = 0.0);
 
   /// True when a point at (range, bearing) in the sensor frame was hidden from the scan: every
   /// beam within sigmas * sqrt(bearing_var) plus the feature's angular radius of `bearing` (at
@@ -32,6 +36,11 @@ class ScanOcclusion {
   bool occluded(double range, double bearing, double range_var, double bearing_var,
                 double sigmas) const;
 
+  /// The probability that at least one beam of the scan falls on the thinnest feature at `range`
+  /// (beams at a uniformly random phase): the angle the feature spans over the beam spacing,
+  /// at most 1. 1 when the feature's size is unknown (0), without a scan, or for bad input.
+  double hitProbability(double range) const;
+
   std::size_t beams() const { return ranges_.size(); }
   double featureRadius() const { return feature_radius_; }
 
@@ -42,6 +51,7 @@ class ScanOcclusion {
   double range_min_ = 0.0;
   double range_max_ = 0.0;
   double feature_radius_ = 0.0;
+  double thinnest_radius_ = 0.0;
   double range_var_ = 0.0;  // one beam's
 };
 

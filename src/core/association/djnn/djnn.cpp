@@ -58,6 +58,8 @@ void DJNN::configure(const ParameterSource& user) {
   bias.read(r);
   OccludedMisses occlusion;
   occlusion.read(r, paper.individual_probability);
+  BeamSpacingMisses beam_spacing;
+  beam_spacing.read(r);
 
   p.paper = paper;
   p.ambiguity = ambiguity.params();
@@ -71,6 +73,7 @@ void DJNN::configure(const ParameterSource& user) {
   p.spacing = spacing.params();
   p.confirmation = confirmation.params();
   p.occlusion = occlusion.params();
+  p.beam_spacing = beam_spacing.params();
   p_ = p;
   ambiguity_ = ambiguity;
   static_test_ = static_test;
@@ -83,6 +86,7 @@ void DJNN::configure(const ParameterSource& user) {
   confirmation_ = confirmation;
   bias_test_ = bias;
   occlusion_ = occlusion;
+  beam_spacing_ = beam_spacing;
 
   paper_.configure(p_.paper, p_.max_evidence);
   density_test_.configure(p_.paper.sensor);
@@ -165,6 +169,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   bias_test_.test(ctx, &scan_, &result, &paper_, &stats_);
   const std::size_t removed_before = result.remove.size();
   occlusion_.mark(ctx, &scan_);
+  beam_spacing_.mark(ctx, &scan_);
   paper_.countMapEvidence(ctx, scan_, &result, &stats_);
   for (std::size_t k = removed_before; k < result.remove.size(); ++k)
     bias_test_.forget(result.remove[k]);

@@ -65,8 +65,8 @@ void EvidenceModel::configure(const SensorModel& sensor, double tentative_gate, 
   max_evidence_ = max_evidence;
 }
 
-double EvidenceModel::step(bool hit, const Eigen::Matrix2d& C) const {
-  const double pd = sensor_.detection_probability;
+double EvidenceModel::step(bool hit, const Eigen::Matrix2d& C, double detectable) const {
+  const double pd = sensor_.detection_probability * detectable;
   double pf = 0.0;
   if (sensor_.clutter_density > 0.0) {
     // Gate area of the feature: the ellipse e^T C^-1 e <= tentative gate.
@@ -340,7 +340,7 @@ void DjnnPaper::countMapEvidence(const AssociationContext& ctx, const LocalScan&
     auto it = evidence_.try_emplace(id, p_.initial_evidence).first;
     double r = 0.0;
     if (scan.count[k] > 0) {
-      r = model_.step(true, ekf.landmarkCovariance(scan.cand[k]));
+      r = model_.step(true, ekf.landmarkCovariance(scan.cand[k]), scan.detectableAt(k));
     } else {
       const Eigen::Vector2d ps = inSensorFrame(scan, ekf.landmark(scan.cand[k]));
       // A scan the joint decision held undecided says nothing about which landmark was missed;
@@ -349,7 +349,7 @@ void DjnnPaper::countMapEvidence(const AssociationContext& ctx, const LocalScan&
         if (scan.isHidden(k)) {
           ++stats->hidden_misses;
         } else {
-          r = model_.step(false, ekf.landmarkCovariance(scan.cand[k]));
+          r = model_.step(false, ekf.landmarkCovariance(scan.cand[k]), scan.detectableAt(k));
         }
       }
     }
@@ -371,22 +371,23 @@ void DjnnPaper::countMapEvidence(const AssociationContext& ctx, const LocalScan&
 // --- 4b. evidence of the features not in the map (eq. 9) -----------------------------------------
 
 int DjnnPaper::startFeature(const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp,
-                            const Eigen::Vector2d& heading_lever, FeatureRules* rules) {
+                            const Eigen::Vector2d& heading_lever, FeatureRules* rules,
+                            double detectable) {
   const int slot = tentatives_.add(z);
-  restartFeature(slot, z, C, stamp, heading_lever, rules);
+  restartFeature(slot, z, C, stamp, heading_lever, rules, detectable);
   return slot;
 }
 
 void DjnnPaper::restartFeature(int slot, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
                                double stamp, const Eigen::Vector2d& heading_lever,
-                               FeatureRules* rules) {
+                               FeatureRules* rules, double detectable) {
   Tentative& t = tentatives_[slot];
   // A new run of sightings: the earlier ones of a restarted feature no longer count.
   if (t.key != kNoFeature) ended_.push_back(t.key);
   t.key = next_key_++;
   t.cov = C;
   t.heading_lever = heading_lever;
-  t.evidence = model_.bump(0.0, model_.step(true, C));  // seen now
+  t.evidence = model_.bump(0.0, model_.step(true, C, detectable));  // seen now
   t.last_seen = stamp;
   t.sightings = 1;
   t.residual = 0.0;
@@ -437,6 +438,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     seen[i].pos = ctx.model().inverse(pose, o.z, o.kind, &G_pose, &G_obs);
     seen[i].cov_obs = G_obs * o.R * G_obs.transpose();
     seen[i].heading_lever = G_pose.col(2);
+    seen[i].detectable = rules->detectable(ctx, RangeBearingModel::range(o.z, o.kind));
     // Gate on position: observation noise of both sightings plus the current pose covariance once
     // (an upper bound on the pose error accumulated between the sightings; using it twice would
     // double-count the correlated part).
@@ -466,7 +468,8 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     const Eigen::Matrix2d C = seen[cnd.obs].cov_obs + noise;
     if (!rules->stillStatic(ctx, cnd.obs, &t, seen[cnd.obs], C, stamp)) {
       // Not one static point (a slow mover): its history is void; restart from this sighting.
-      restartFeature(slot, z, C, stamp, seen[cnd.obs].heading_lever, rules);
+      restartFeature(slot, z, C, stamp, seen[cnd.obs].heading_lever, rules,
+                     seen[cnd.obs].detectable);
       ++stats->static_restarts;
       continue;
     }
@@ -476,7 +479,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     t.heading_lever += K * (seen[cnd.obs].heading_lever - t.heading_lever);
     t.cov = (Eigen::Matrix2d::Identity() - K) * t.cov;
     t.cov = 0.5 * (t.cov + t.cov.transpose()).eval();
-    t.evidence = model_.bump(t.evidence, model_.step(true, t.cov));
+    t.evidence = model_.bump(t.evidence, model_.step(true, t.cov, seen[cnd.obs].detectable));
     t.last_seen = stamp;
     tentatives_.move(slot, fused);
   }
@@ -487,8 +490,10 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     if (tent_hit_[k]) continue;
     const int slot = tent_near_[k];
     Tentative& t = tentatives_[slot];
-    if (inPenaltyRegion(inSensorFrame(*scan, t.position))) {
-      t.evidence = model_.bump(t.evidence, model_.step(false, t.cov));
+    const Eigen::Vector2d ps = inSensorFrame(*scan, t.position);
+    if (inPenaltyRegion(ps)) {
+      const double detectable = rules->detectable(ctx, ps.norm());
+      t.evidence = model_.bump(t.evidence, model_.step(false, t.cov, detectable));
     }
     const bool stale = p_.tentative_timeout > 0.0 && stamp - t.last_seen > p_.tentative_timeout;
     if (t.evidence <= p_.remove_evidence + kEvidenceEps || stale) {
@@ -503,8 +508,8 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     int slot = seen[i].slot;
     const bool born = slot < 0;
     if (born)
-      slot =
-          startFeature(seen[i].pos, seen[i].cov_obs + noise, stamp, seen[i].heading_lever, rules);
+      slot = startFeature(seen[i].pos, seen[i].cov_obs + noise, stamp, seen[i].heading_lever, rules,
+                          seen[i].detectable);
     rules->sighted(ctx, slot, i, born);
     const double t = tentatives_[slot].evidence;
     result->decision[i] = rules->decide(ctx, i, slot, t, t >= p_.admit_evidence - kEvidenceEps);

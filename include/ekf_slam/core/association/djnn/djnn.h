@@ -8,8 +8,9 @@
 //   AmbiguityGate        ambiguity_probability           duplicates of a landmark left unpaired
 //   StaticTest           static_*, learn_mover_speed     slow movers admitted as landmarks
 //   BiasTest             bias_*                          landmarks dragged along by movers
-//   FollowPose           tentative_follow_pose           tentative features left at a corrected
-//   pose ShiftTest            shift_test, shift_margin        a periodic layout's shifted pairing
+//   FollowPose           tentative_follow_pose           tentative features left behind when
+//                                                        the pose is corrected
+//   ShiftTest            shift_test, shift_margin        a periodic layout's shifted pairing
 //   DensityTest          landmark_density, estimate_landmark_density
 //                                                        a new landmark paired with an old one
 //   missed-detection profile (missed_detection_profile.h): the defaults of the parts above for a
@@ -20,6 +21,8 @@
 //   HeldConfirmation     held_confirmations              a closure decided on one scan's noise
 //   OccludedMisses       occlusion_aware_misses          landmarks hidden behind nearer returns
 //                                                        removed as missed
+//   BeamSpacingMisses    beam_spacing_misses             thin poles that fall between the beams
+//                                                        removed, or dropped while tentative
 //
 // associate() reads as the paper's steps with the parts' calls between them.
 #pragma once
@@ -33,6 +36,7 @@
 
 #include "ekf_slam/core/association/data_association.h"
 #include "ekf_slam/core/association/djnn/ambiguity_gate.h"
+#include "ekf_slam/core/association/djnn/beam_spacing_misses.h"
 #include "ekf_slam/core/association/djnn/bias_test.h"
 #include "ekf_slam/core/association/djnn/density_test.h"
 #include "ekf_slam/core/association/djnn/djnn_paper.h"
@@ -68,6 +72,7 @@ class DJNN : public DataAssociation, private FeatureRules {
     LandmarkSpacing::Params spacing;
     HeldConfirmation::Params confirmation;
     OccludedMisses::Params occlusion;
+    BeamSpacingMisses::Params beam_spacing;
   };
 
   DJNN();
@@ -97,6 +102,9 @@ class DJNN : public DataAssociation, private FeatureRules {
   Eigen::Matrix2d gateCovariance(const Eigen::Matrix2d& cov_obs, const Matrix23d& G_pose,
                                  const Eigen::Matrix3d& P_vv, double* lever_var) const override;
   Eigen::Matrix2d sightingNoise() const override { return static_test_.sightingNoise(); }
+  double detectable(const AssociationContext& ctx, double range) const override {
+    return beam_spacing_.detectable(ctx, range);
+  }
   bool stillStatic(const AssociationContext& ctx, int obs, Tentative* t, const Sighting& s,
                    const Eigen::Matrix2d& C, double stamp) override;
   void started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
@@ -123,6 +131,7 @@ class DJNN : public DataAssociation, private FeatureRules {
   LandmarkSpacing spacing_;
   HeldConfirmation confirmation_;
   OccludedMisses occlusion_;
+  BeamSpacingMisses beam_spacing_;
 
   LocalScan scan_;
   std::vector<double> pending_new_;    ///< per observation of the last scan: T at admission, or -1

@@ -100,8 +100,9 @@ class EvidenceModel {
  public:
   void configure(const SensorModel& sensor, double tentative_gate, int max_evidence);
   /// r_k of a feature seen (hit) or missed, with position covariance C: 2 (1 - tau), -2 tau;
-  /// +1 / -1 for P_D = 1 without clutter.
-  double step(bool hit, const Eigen::Matrix2d& C) const;
+  /// +1 / -1 for P_D = 1 without clutter. `detectable`: the share of P_D the sensor had at the
+  /// feature (the beams' spacing, BeamSpacingMisses); P_D times it is this feature's P_D.
+  double step(bool hit, const Eigen::Matrix2d& C, double detectable = 1.0) const;
   /// T + r, within the cap.
   double bump(double evidence, double r) const;
 
@@ -118,6 +119,7 @@ struct Sighting {
   Eigen::Vector2d heading_lever;  ///< d pos / d heading (column 2 of G_x)
   int slot;                       ///< tentative feature it matched, or -1
   bool eligible;
+  double detectable = 1.0;  ///< FeatureRules::detectable at its range
 };
 
 /// Where the extensions change the paper's step for features not in the map.
@@ -131,6 +133,8 @@ class FeatureRules {
                                          const Eigen::Matrix3d& P_vv, double* lever_var) const = 0;
   /// Noise added to each sighting for the feature's fusion (the paper: none).
   virtual Eigen::Matrix2d sightingNoise() const = 0;
+  /// The share of P_D the sensor had at `range` [m] in this scan (the paper: 1).
+  virtual double detectable(const AssociationContext& ctx, double range) const = 0;
   /// A sighting `s` (observation `obs`, noise C) of feature t: false when it shows t is no
   /// static point, which then restarts from this sighting (the paper: always true).
   virtual bool stillStatic(const AssociationContext& ctx, int obs, Tentative* t, const Sighting& s,
@@ -199,12 +203,14 @@ class DjnnPaper {
   int evidence(LandmarkId id) const;
   TentativeSet& tentatives() { return tentatives_; }
   const TentativeSet& tentatives() const { return tentatives_; }
-  /// A new tentative feature from sighting z (noise C).
+  /// A new tentative feature from sighting z (noise C; `detectable` as in EvidenceModel::step).
   int startFeature(const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp,
-                   const Eigen::Vector2d& heading_lever, FeatureRules* rules);
+                   const Eigen::Vector2d& heading_lever, FeatureRules* rules,
+                   double detectable = 1.0);
   /// Restarts feature `slot` from sighting z: its first sighting, or after a failed static test.
   void restartFeature(int slot, const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp,
-                      const Eigen::Vector2d& heading_lever, FeatureRules* rules);
+                      const Eigen::Vector2d& heading_lever, FeatureRules* rules,
+                      double detectable = 1.0);
   void dropFeature(int slot, bool stale, FeatureRules* rules);
   void reset();
 

@@ -40,6 +40,8 @@ struct LocalScan {
   bool held = false;            ///< the joint decision held an observation of this scan
   /// Per candidate: unpaired and hidden behind a nearer return (OccludedMisses); may be empty.
   std::vector<char> hidden;
+  /// Per candidate: the share of P_D the beams' spacing left it (BeamSpacingMisses); may be empty.
+  std::vector<double> detectable;
   Eigen::Vector2d v_bar = Eigen::Vector2d::Zero();  ///< the compensation that decided (eq. 6-8)
 
   int observations() const { return static_cast<int>(assign.size()); }
@@ -49,6 +51,9 @@ struct LocalScan {
   }
   bool isHidden(int c) const {
     return static_cast<std::size_t>(c) < hidden.size() && hidden[c] != 0;
+  }
+  double detectableAt(int c) const {
+    return static_cast<std::size_t>(c) < detectable.size() ? detectable[c] : 1.0;
   }
   /// The candidate slot of landmark state index j (which must be a candidate).
   int slotOf(int j) const {

@@ -2,6 +2,7 @@
 // (eq. 10), cost independent of the far map, and the hand-made association problems.
 #include <algorithm>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -721,6 +722,44 @@ TEST(DJNN, LandmarkFollowingAMoverIsRemovedByTheBiasTest) {
   dec.clear();
   EXPECT_TRUE(run(true, 0.0, 30, &dec).empty());
   EXPECT_EQ(std::count(dec.begin(), dec.end(), Decision::kPaired), 30);
+}
+
+// Five landmarks 10 m ahead. Where the filter is over-confident every landmark's innovations
+// lean one way alike (here each range +0.1 m, 2 sigma, for 20 scans): the bias test alone
+// removes them all; scaled by the median statistic of the scan's pairings
+// (bias_consistency_scale) it removes none. One landmark among consistent ones that follows a
+// mover is still removed with the scale.
+TEST(DJNN, BiasTestIsRelativeToTheFiltersMeasuredConsistency) {
+  auto removed = [](bool scale, bool common_bias) {
+    Scene s = sharpScene(diag2(0.05, deg2rad(0.5)));
+    for (int b = -40; b <= 40; b += 20) s.addLandmark(polar(10.0, b), diag2(0.01, 0.01));
+    s.build();
+    DJNN d = makeDjnn({{"bias_test", "true"},
+                       {"bias_consistency_scale", scale ? "true" : "false"},
+                       {"individual_probability", "0.999"},
+                       {"ambiguity_probability", "0.999"}});
+    std::set<LandmarkId> out;  // (the scene's filter keeps them: each counted once)
+    for (int k = 1; k <= 20; ++k) {
+      clearScan(&s);
+      for (int j = 0; j < 5; ++j) {
+        const Eigen::Vector2d p = s.true_landmarks[j];
+        if (common_bias) {
+          observeBiased(&s, p, Eigen::Vector2d(0.1, 0.0), j);
+        } else if (j == 2) {  // follows a mover: 0.05 m further along y every scan
+          s.observePoint(p + Eigen::Vector2d(0.0, 0.05 * k), nullptr, j);
+        } else {  // static, alternating +-0.05 m (about half a sigma)
+          s.observePoint(p + Eigen::Vector2d(0.0, k % 2 ? 0.05 : -0.05), nullptr, j);
+        }
+      }
+      const AssociationResult r = d.associate(s.context(0.2 * k));
+      out.insert(r.remove.begin(), r.remove.end());
+    }
+    return out;
+  };
+  EXPECT_EQ(removed(false, true).size(), 5u);
+  EXPECT_EQ(removed(true, true), std::set<LandmarkId>{});
+  EXPECT_EQ(removed(false, false), std::set<LandmarkId>{Scene::idOf(2)});
+  EXPECT_EQ(removed(true, false), std::set<LandmarkId>{Scene::idOf(2)});
 }
 
 TEST(DJNN, ResetForgetsState) {

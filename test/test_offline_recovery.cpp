@@ -137,7 +137,7 @@ TEST(OfflineRecovery, SavedMapWithUnknownPoseIsFoundAgain) {
   second.unknown_pose = true;
   const nlohmann::json j = metrics(runOffline(second, log));
   ASSERT_GE(j["relocalisation_events"].size(), 1u) << log.str();
-  EXPECT_LE(j["relocalisation_events"][0]["scan"].get<int>(), 2);
+  EXPECT_LE(j["relocalisation_events"][0]["scan"].get<int>(), 3);  // within 0.6 s
   EXPECT_EQ(j["counters"]["relocalisation_requests"].get<int>(), 1);
   EXPECT_EQ(j["counters"]["relocalisations"].get<int>(), 1);
   // In the map of the first run, the second ends where the first did.

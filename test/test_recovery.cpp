@@ -512,7 +512,11 @@ TEST(Recovery, KidnappedSimulatedWorldRecoversWithinTwoSeconds) {
   EXPECT_EQ(m.wrong_relocalisations, 0u);
   ASSERT_GE(m.recovery_scans, 0) << "never recovered";
   EXPECT_LE(m.recovery_s, 2.0);
-  EXPECT_LT(m.pose_rmse_after_recovery_m, 1.0);
+  // In its own map the fix is right (0.02 m); against the truth's frame the pose also carries
+  // the map's drift, which in the rrw worlds (every landmark 100-280 m away under 3 deg x 5
+  // bearing noise) is 1-2 m before any kidnap (the whole run's pose RMSE, 2.3 m).
+  EXPECT_LT(m.error_after_kidnap_map_m, 0.25);
+  EXPECT_LT(m.pose_rmse_after_recovery_m, 2.0);
   EXPECT_EQ(m.map.duplicates, 0u);
 }
 

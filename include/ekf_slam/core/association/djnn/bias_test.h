@@ -8,6 +8,7 @@
 #pragma once
 
 #include <unordered_map>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -25,12 +26,21 @@ class BiasTest {
     double bias_window = 5.0;
     int bias_min_pairings = 3;
     int bias_keep_pairings = 0;  ///< 0: off (every biased landmark is removed)
+    /// Scale the test's covariance by the innovations' measured consistency (docs/djnn.md).
+    bool bias_consistency_scale = true;
   };
   void read(const ParameterReader& r);
   void configure();
   const Params& params() const { return p_; }
   bool on() const { return p_.bias_test; }
-  void reset() { bias_.clear(); }
+  void reset() {
+    bias_.clear();
+    scale_ = 1.0;
+    scans_ = 0;
+    ratios_.clear();
+  }
+  /// The innovations' consistency scale in use (1: as consistent as the filter claims).
+  double scale() const { return scale_; }
 
   /// Tests the scan's pairings: a biased one is withdrawn (rejected, not a new feature) and its
   /// landmark removed (result->remove; its evidence forgotten) unless established.
@@ -47,12 +57,17 @@ class BiasTest {
     Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
     int pairings = 0;
   };
-  /// Adds the pairing of observation `obs` with landmark state index j; true = biased.
-  bool biased(const AssociationContext& ctx, int obs, int j);
+  /// Adds the pairing of observation `obs` with landmark state index j; its statistic
+  /// a^T B^-1 a, or -1 before bias_min_pairings.
+  double accumulate(const AssociationContext& ctx, int obs, int j);
 
   Params p_;
   double gate_ = 0.0, decay_ = 0.8;
   std::unordered_map<LandmarkId, Bias> bias_;
+  double scale_ = 1.0;  // median over scans of median(statistic) / median(chi2(2)), at least 1
+  std::size_t scans_ = 0;
+  std::vector<double> ratios_;               // the last scans' ratios, a ring
+  std::vector<double> nis_, stat_, window_;  // scratch
 };
 
 }  // namespace ekf_slam

@@ -15,11 +15,11 @@
 namespace ekf_slam {
 
 void LostScans::add(std::uint32_t scan, const Eigen::Vector3d& pose,
-                    std::vector<Observation> observations, const ScanOcclusion* occlusion) {
+                    std::vector<Observation> observations) {
   if (observations.empty()) return;
   if (scans_.size() >= kMaxScans) scans_.pop_front();
-  scans_.push_back({scan, pose, std::move(observations), Eigen::Matrix3d::Identity(),
-                    Eigen::Matrix3d::Zero(), occlusion != nullptr ? *occlusion : ScanOcclusion()});
+  scans_.push_back(
+      {scan, pose, std::move(observations), Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero()});
 }
 
 void LostScans::carry(const MotionStep& step) {
@@ -72,20 +72,6 @@ bool carryBack(EkfSlam& ekf, const LostScans::Scan& s, const Eigen::Vector3d& la
   return ekf.predict(step);
 }
 
-// H P H^T of landmark k's predicted measurement at the current pose (Jacobians Hx, Hm), with the
-// joint covariance of pose and landmark.
-Eigen::Matrix2d predictedCovariance(const EkfSlam& ekf, const Matrix23d& Hx,
-                                    const Eigen::Matrix2d& Hm, int k) {
-  const auto P = ekf.storedCovariance();
-  const int r = ekf.stateRow(k);
-  // The vehicle rows are current in every column, each landmark's own block too.
-  const Eigen::Matrix3d Pvv = P.topLeftCorner<3, 3>();
-  const Eigen::Matrix<double, 3, 2> Pvm = P.block<3, 2>(0, r);
-  const Eigen::Matrix2d Pmm = ekf.landmarkCovariance(k);
-  return Hx * Pvv * Hx.transpose() + Hx * Pvm * Hm.transpose() +
-         Hm * Pvm.transpose() * Hx.transpose() + Hm * Pmm * Hm.transpose();
-}
-
 // Squared Mahalanobis distance of observation o to landmark k at the current pose, with the
 // joint covariance of pose and landmark; infinity when it cannot be computed.
 double distance2(const EkfSlam& ekf, const RangeBearingModel& model, const Observation& o, int k) {
@@ -94,7 +80,14 @@ double distance2(const EkfSlam& ekf, const RangeBearingModel& model, const Obser
   const Eigen::Vector2d m = ekf.landmark(k);
   const Eigen::Vector2d zh = model.predict(ekf.pose(), m, o.kind, &Hx, &Hm);
   const Eigen::Vector2d v = RangeBearingModel::innovation(o.z, zh, o.kind);
-  const Eigen::Matrix2d S = predictedCovariance(ekf, Hx, Hm, k) + o.R;
+  const auto P = ekf.storedCovariance();
+  const int r = ekf.stateRow(k);
+  // The vehicle rows are current in every column, each landmark's own block too.
+  const Eigen::Matrix3d Pvv = P.topLeftCorner<3, 3>();
+  const Eigen::Matrix<double, 3, 2> Pvm = P.block<3, 2>(0, r);
+  const Eigen::Matrix2d Pmm = ekf.landmarkCovariance(k);
+  const Eigen::Matrix2d S = Hx * Pvv * Hx.transpose() + Hx * Pvm * Hm.transpose() +
+                            Hm * Pvm.transpose() * Hx.transpose() + Hm * Pmm * Hm.transpose() + o.R;
   const Eigen::LDLT<Eigen::Matrix2d> ldlt(S);
   if (ldlt.info() != Eigen::Success || !v.allFinite())
     return std::numeric_limits<double>::infinity();
@@ -133,16 +126,6 @@ std::vector<int> landmarksInReach(const EkfSlam& ekf, const LandmarkIndex& index
   return out;
 }
 
-// Whether a scan could have seen a point predicted at z (range, bearing; covariance S): in view
-// (params' range and field of view) and, by the scan's returns, not hidden behind nearer ones.
-bool couldSee(const ScanOcclusion& occlusion, const Eigen::Vector2d& z, const Eigen::Matrix2d& S,
-              const LostMappingParams& params, double sigmas) {
-  if (!(z(0) >= params.view_min_range && z(0) <= params.view_max_range &&
-        std::abs(wrapAngle(z(1))) <= 0.5 * params.field_of_view))
-    return false;
-  return !occlusion.occluded(z(0), z(1), S(0, 0), S(1, 1), sigmas);
-}
-
 }  // namespace
 
 LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const LostScans& lost,
@@ -159,17 +142,6 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
   std::vector<std::uint32_t> seen;
   std::vector<double> descriptor_sum;
   std::vector<int> descriptor_count;
-  // lost_map_min_visible_share: the scans that could see each new landmark. Only when every
-  // scan kept its returns: otherwise "not seen" cannot tell hidden from missed.
-  const bool by_share =
-      params.min_visible_share > 0.0 &&
-      std::all_of(lost.scans().begin(), lost.scans().end(),
-                  [](const LostScans::Scan& s) { return s.occlusion.beams() > 0; });
-  const double sigmas = std::sqrt(chi2Quantile(params.pair_probability, 1));
-  std::vector<int> could_see;
-  std::vector<std::size_t> born;        // the scan (in mapping order) that created it
-  std::vector<Eigen::Matrix2d> born_R;  // ... and the noise of the observation that did
-  std::vector<Eigen::Vector3d> views;   // each scan's pose, as estimated after its update
   Eigen::Vector3d later = dead_reckoned_now;
   // Newest first: each step carries the state back by one stretch of odometry.
   for (auto s = lost.scans().rbegin(); s != lost.scans().rend(); ++s) {
@@ -211,7 +183,6 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
       pairings.push_back(Pairing{id, o.z, o.R, o.kind});
     }
     if (!pairings.empty() && !ekf.update(pairings, model)) pairings.clear();
-    std::vector<LandmarkId> seen_here;
     for (const Pairing& p : pairings) {
       const auto c = std::find(created.begin(), created.end(), p.id);
       if (c == created.end()) {
@@ -220,7 +191,6 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
       }
       const std::size_t j = static_cast<std::size_t>(c - created.begin());
       ++seen[j];
-      seen_here.push_back(p.id);
     }
     // What no landmark explains is new: initialised at this scan's pose, which carries the
     // odometry chain's correlation with the fixed pose and the map.
@@ -230,11 +200,7 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
       const LandmarkId id = ekf.addLandmark(o.z, o.R, model, o.kind);
       if (id == kNoLandmark) continue;
       created.push_back(id);
-      seen_here.push_back(id);
       seen.push_back(1);
-      could_see.push_back(0);
-      born.push_back(views.size());
-      born_R.push_back(o.R);
       descriptor_sum.push_back(std::isfinite(o.descriptor) ? o.descriptor : 0.0);
       descriptor_count.push_back(std::isfinite(o.descriptor) ? 1 : 0);
     }
@@ -251,47 +217,14 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
         break;
       }
     }
-    // Each new landmark so far: seen here, or could it have been? Its prediction's covariance
-    // the joint one of pose and landmark (as for a miss in tracking).
-    for (std::size_t j = 0; by_share && j < created.size(); ++j) {
-      if (std::find(seen_here.begin(), seen_here.end(), created[j]) != seen_here.end()) {
-        ++could_see[j];
-        continue;
-      }
-      const int k = ekf.indexOf(created[j]);
-      if (k < 0) continue;
-      Matrix23d Hx;
-      Eigen::Matrix2d Hm;
-      const Eigen::Vector2d z =
-          model.predict(ekf.pose(), ekf.landmark(k), MeasurementKind::kRangeBearing, &Hx, &Hm);
-      if (couldSee(s->occlusion, z, predictedCovariance(ekf, Hx, Hm, k), params, sigmas))
-        ++could_see[j];
-    }
-    views.push_back(ekf.pose());
-  }
-  // The scans mapped before a landmark was made, at their estimates then: the landmark's
-  // position relative to them as uncertain as the observation that made it.
-  for (std::size_t j = 0; by_share && j < created.size(); ++j) {
-    const int k = ekf.indexOf(created[j]);
-    if (k < 0) continue;
-    auto s = lost.scans().rbegin();
-    for (std::size_t t = 0; t < born[j]; ++t, ++s) {
-      const Eigen::Vector2d z = model.predict(views[t], ekf.landmark(k),
-                                              MeasurementKind::kRangeBearing, nullptr, nullptr);
-      if (couldSee(s->occlusion, z, born_R[j], params, sigmas)) ++could_see[j];
-    }
   }
   ekf.restorePose(now);
   // A feature seen in too few lost scans may be clutter: removed (marginalised; what its
   // sightings told the other states stays).
-  // So is one seen in too small a share of the scans that could see it (a real tree is seen in
-  // about its detection probability's share of them).
   for (std::size_t j = 0; j < created.size(); ++j) {
-    const bool rare = by_share && seen[j] < params.min_visible_share * could_see[j];
-    if (static_cast<int>(seen[j]) < params.min_sightings || rare) {
+    if (static_cast<int>(seen[j]) < params.min_sightings) {
       ekf.removeLandmark(created[j]);
       ++out.dropped;
-      if (rare && static_cast<int>(seen[j]) >= params.min_sightings) ++out.rarely_seen;
       continue;
     }
     out.created.push_back(created[j]);

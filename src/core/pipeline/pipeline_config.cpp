@@ -136,8 +136,6 @@ void PipelineConfig::validate() const {
       lost_map_new_probability);
   requireParameter(lost_map_min_sightings >= 1, "lost_map_min_sightings", "must be at least 1",
                    lost_map_min_sightings);
-  requireParameter(lost_map_min_visible_share >= 0.0 && lost_map_min_visible_share <= 1.0,
-                   "lost_map_min_visible_share", "must lie in [0, 1]", lost_map_min_visible_share);
   requireParameter(relocalisation_confirm_distance > 0.0, "relocalisation_confirm_distance",
                    "must be positive", relocalisation_confirm_distance);
   requireParameter(relocalisation_confirm_angle > 0.0 && relocalisation_confirm_angle <= M_PI,
@@ -289,8 +287,6 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_map_new_probability =
       r.probability("lost_map_new_probability", c.lost_map_new_probability);
   c.lost_map_min_sightings = r.integer("lost_map_min_sightings", c.lost_map_min_sightings, 1, 1000);
-  c.lost_map_min_visible_share =
-      r.inRange("lost_map_min_visible_share", c.lost_map_min_visible_share, 0.0, 1.0);
   c.relocalisation_confirm_distance =
       r.positive("relocalisation_confirm_distance", c.relocalisation_confirm_distance);
   c.relocalisation_confirm_angle =

@@ -258,14 +258,14 @@ void Recovery::fixed(const Eigen::Vector3d& dead_reckoned, ScanReport* report) {
   lost_ = false;
 }
 
-void Recovery::rememberPose(const ScanReport& report, const ScanOcclusion* occlusion) {
+void Recovery::rememberPose(const ScanReport& report) {
   if (!relocaliser_) return;
   if (lost_) {
     if (lost_path_.size() >= kMaxLostPath) lost_path_.pop_front();
     lost_path_.push_back({report.scan, report.stamp, motion_.pose()});
     // Only what was not applied: the scan that made the rule fire was tracked.
     if (report.lost && config_.lost_map_scans)
-      seen_while_lost_.add(report.scan, motion_.pose(), report.observations, occlusion);
+      seen_while_lost_.add(report.scan, motion_.pose(), report.observations);
     return;
   }
   tracked_.push_back({report.scan, report.stamp, book_.informativeScans(), motion_.pose(),

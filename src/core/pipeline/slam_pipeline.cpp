@@ -180,23 +180,21 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
   if (recovery_.lost()) {
     // The map is frozen: no association (the associator's state stays as it was), no landmark
     // added or removed, only the relocaliser.
-    relocaliseLost(&report, occlusion);
+    relocaliseLost(&report);
     return report;
   }
   mapper_.associate(*associator_, stamp, &report, occlusion);
   // A kidnap found by rule 3: the associator's decisions are not applied, the relocaliser's are.
   if (recovery_.active() && kidnapRefused(&report)) {
-    recovery_.rememberPose(report, occlusion);
+    recovery_.rememberPose(report);
     return report;
   }
   book_.countScan(static_cast<int>(report.observations.size()) >= config_.lost_min_observations);
   if (recovery_.active()) updateCheckpoint(report);
   mapper_.apply(*associator_, {}, &report);
-  if (checkpoint_.held)
-    checkpoint_.scans.add(report.scan, motion_.odometry(), report.observations, occlusion);
+  if (checkpoint_.held) checkpoint_.scans.add(report.scan, motion_.odometry(), report.observations);
   if (recovery_.active()) checkLost(&report);
-  recovery_.rememberPose(report,
-                         occlusion);  // went lost at this scan: its pose is carried back at the fix
+  recovery_.rememberPose(report);  // went lost at this scan: its pose is carried back at the fix
   return report;
 }
 
@@ -220,7 +218,7 @@ void SlamPipeline::injectPoseJump(const Eigen::Vector3d& delta) {
   filter_.ekf().setPose(filter_.ekf().pose() + delta);
 }
 
-void SlamPipeline::relocaliseLost(ScanReport* report, const ScanOcclusion* occlusion) {
+void SlamPipeline::relocaliseLost(ScanReport* report) {
   bool resumed = false;
   if (const std::optional<RelocalisationResult> fix = recovery_.relocalise(report, &resumed)) {
     applyFix(*fix, report);
@@ -230,7 +228,7 @@ void SlamPipeline::relocaliseLost(ScanReport* report, const ScanOcclusion* occlu
     report->lost_timeout = true;
     monitor_.resume();
   }
-  recovery_.rememberPose(*report, occlusion);
+  recovery_.rememberPose(*report);
 }
 
 bool SlamPipeline::kidnapRefused(ScanReport* report) {
@@ -451,11 +449,6 @@ void SlamPipeline::mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d
   params.pair_probability = config_.lost_map_pair_probability;
   params.new_probability = config_.lost_map_new_probability;
   params.min_sightings = config_.lost_map_min_sightings;
-  params.min_visible_share = config_.lost_map_min_visible_share;
-  params.view_min_range = config_.min_observation_range;
-  params.view_max_range =
-      config_.lost_view_range > 0.0 ? config_.lost_view_range : config_.max_observation_range;
-  params.field_of_view = config_.lost_field_of_view;
   const LostScanMapping m = mapLostScans(ekf, model_, lost, dead_reckoned, params, &index_);
   filter_.restart();
   for (const LandmarkId id : m.paired) book_.paired(id, std::nan(""));

@@ -14,7 +14,6 @@
 
 #include <Eigen/Core>
 
-#include "ekf_slam/core/feature_extraction/scan_occlusion.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/landmark_index.h"
 #include "ekf_slam/core/filter/motion_models.h"
@@ -33,8 +32,6 @@ class LostScans {
     // predictions were: next = f(this), F = d next / d this, Q its noise (dead-reckoned frame).
     Eigen::Matrix3d F;
     Eigen::Matrix3d Q;
-    // What the scan's laser returns hid (no beams: not known, e.g. point observations).
-    ScanOcclusion occlusion;
   };
 
   /// At most this many scans are kept (the oldest go): about 3 minutes of Victoria Park's.
@@ -43,10 +40,8 @@ class LostScans {
   void clear() { scans_.clear(); }
   bool empty() const { return scans_.empty(); }
   const std::deque<Scan>& scans() const { return scans_; }
-  /// A scan processed lost, at its dead-reckoned pose (scans without observations are skipped),
-  /// with what its laser returns hid when it has them.
-  void add(std::uint32_t scan, const Eigen::Vector3d& pose, std::vector<Observation> observations,
-           const ScanOcclusion* occlusion = nullptr);
+  /// A scan processed lost, at its dead-reckoned pose (scans without observations are skipped).
+  void add(std::uint32_t scan, const Eigen::Vector3d& pose, std::vector<Observation> observations);
   /// An odometry step predicted after the newest kept scan.
   void carry(const MotionStep& step);
   /// Forgets the scans from `scan` on (those a fix already used), their odometry kept.
@@ -63,13 +58,6 @@ struct LostMappingParams {
   double pair_probability = 0.99;   ///< an observation pairs inside chi2(2, this) of one landmark
   double new_probability = 0.9999;  ///< ... and is new outside chi2(2, this) of every landmark
   int min_sightings = 3;            ///< lost scans a new landmark must be seen in to stay
-  /// ... and in at least this share of the lost scans that could see it: in view (below) and,
-  /// by the scan's returns, not hidden behind nearer ones (ScanOcclusion). Applied only when
-  /// every lost scan kept its returns; 0: off.
-  double min_visible_share = 0.0;
-  double view_min_range = 0.0;               ///< "in view": at least this far from the sensor,
-  double view_max_range = 30.0;              ///< ... at most this far,
-  double field_of_view = 3.141592653589793;  ///< ... within this full angle about its x axis
 };
 
 /// What mapLostScans did: the landmarks it created and kept (with their sightings and mean
@@ -80,8 +68,7 @@ struct LostScanMapping {
   std::vector<double> descriptors;  // NaN when unknown
   std::vector<LandmarkId> paired;   // landmarks of the map before, once per pairing
   int scans = 0;                    // scans carried back to
-  int dropped = 0;                  // new landmarks seen too few times, removed again (all)
-  int rarely_seen = 0;              // ... of them for min_visible_share
+  int dropped = 0;                  // new landmarks seen too few times, removed again
 };
 
 /// Maps `lost` into `ekf`, whose pose is the fixed one at the scan after the newest lost scan

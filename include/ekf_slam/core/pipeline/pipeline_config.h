@@ -156,10 +156,6 @@ struct PipelineConfig {
   double lost_map_pair_probability = 0.99;
   double lost_map_new_probability = 0.9999;
   int lost_map_min_sightings = 3;
-  /// ... and in at least this share of the lost scans that could see it (in view by
-  /// lost_view_range and lost_field_of_view, not hidden behind nearer returns of the scan); only
-  /// where every lost scan is a laser scan; 0: off
-  double lost_map_min_visible_share = 0.0;
   /// Before a scan that pairs few of its observations with established landmarks (LostMonitor::
   /// suspect) the map is kept; at a lost event the map goes back to it and the scans since become
   /// lost scans (docs/relocalisation.md, "Rolling back to before the kidnap"). false: the scans

@@ -75,8 +75,8 @@ class Recovery {
   /// report->lost_path gets the re-derived poses.
   void fixed(const Eigen::Vector3d& dead_reckoned, ScanReport* report);
   /// Remembers the scan's pose: on the lost path while lost, else as a tracked scan a later fix
-  /// may contradict. `occlusion`: what the scan's returns hid (kept with a lost scan).
-  void rememberPose(const ScanReport& report, const ScanOcclusion* occlusion = nullptr);
+  /// may contradict.
+  void rememberPose(const ScanReport& report);
 
   static bool usable(const RelocalisationResult& r, std::size_t n);
 

@@ -175,7 +175,7 @@ class SlamPipeline {
   ScanReport associateAndUpdate(double stamp, std::vector<Observation> observations,
                                 ScanReport report, const ScanOcclusion* occlusion = nullptr);
   /// While lost: one relocaliser call; a confirmed fix is applied.
-  void relocaliseLost(ScanReport* report, const ScanOcclusion* occlusion = nullptr);
+  void relocaliseLost(ScanReport* report);
   /// Lost rule 3 on the association, before it is applied; true when it fired: the relocaliser
   /// found a kidnap on this scan (a probe), the pipeline is lost and the associator's decisions
   /// must not be applied (the fix, when confirmed, has been).

@@ -3,6 +3,7 @@
 // initialised there, the fixed pose restored from a clone (EkfSlam::restorePose).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -10,6 +11,7 @@
 
 #include "ekf_slam/core/common/pose2d.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
+#include "ekf_slam/core/filter/landmark_index.h"
 #include "ekf_slam/core/pipeline/lost_scans.h"
 
 namespace ekf_slam {
@@ -128,6 +130,37 @@ TEST(MapLostScans, AFeatureSeenTooFewTimesIsDropped) {
   // Seen only at its initialisation and once more: the second sighting is information the pose
   // and map keep; nothing is made worse.
   EXPECT_LE(ekf.covariance().trace(), P.trace() + 1e-9);
+}
+
+TEST(MapLostScans, ACallersIndexOfAnyCellSizeMapsTheSameAndEndsInStep) {
+  // The candidates come from a landmark index: the pipeline's (20 m cells here, so the query
+  // visits cells, not every occupied one) or, without one, a local one. Far trees, beyond every
+  // observation's reach, must change nothing either way.
+  const LostDrive drive(4);
+  EkfSlam a = drive.fixedFilter();
+  for (int i = 0; i < 8; ++i) {
+    for (int j = 0; j < 8; ++j)
+      a.insertLandmark({200.0 + 25.0 * i, 200.0 + 25.0 * j}, 0.01 * Eigen::Matrix2d::Identity(),
+                       200 + 8 * i + j);
+  }
+  EkfSlam b = a;
+  LandmarkIndex index(20.0);
+  index.sync(b);
+  const LostScanMapping ma = mapLostScans(a, kModel, drive.lost, drive.dead_reckoned_now, {});
+  const LostScanMapping mb =
+      mapLostScans(b, kModel, drive.lost, drive.dead_reckoned_now, {}, &index);
+  ASSERT_EQ(ma.created.size(), 1u);
+  EXPECT_EQ(ma.created, mb.created);
+  EXPECT_EQ(ma.sightings, mb.sightings);
+  EXPECT_EQ(ma.dropped, mb.dropped);
+  EXPECT_EQ(a.landmarkIds(), b.landmarkIds());
+  EXPECT_TRUE(a.mean() == b.mean());  // bit for bit
+  EXPECT_TRUE(Eigen::MatrixXd(a.covariance()) == Eigen::MatrixXd(b.covariance()));
+  // The given index holds the new tree where the filter has it.
+  std::vector<int> near;
+  index.query(b, drive.unmapped, 5.0, &near);
+  const int k = b.indexOf(mb.created[0]);
+  EXPECT_NE(std::find(near.begin(), near.end(), k), near.end());
 }
 
 TEST(LostScans, DroppingTheNewestKeepsTheOdometryToNow) {

@@ -95,13 +95,46 @@ double distance2(const EkfSlam& ekf, const RangeBearingModel& model, const Obser
   return std::isfinite(d2) && d2 >= 0.0 ? d2 : std::numeric_limits<double>::infinity();
 }
 
+// How far beyond an observation's range a landmark may lie and still be compared with it: a
+// generous margin for the pose; those further away are not worth the covariance.
+constexpr double kReachMargin = 20.0;
+
+// The state indices, ascending, of the landmarks within an observation's range plus kReachMargin
+// of the sensor for some observation of `observations`: the landmarks the exact test in
+// mapLostScans can let through, from the index (synced), not the whole map. The query's radius
+// is the largest reach widened by a relative 1e-9 and an absolute 1e-9 m, far above the rounding
+// of the distance and of the query's cell bounds, so it contains every landmark within any
+// observation's reach; the caller applies the exact test to each. A non-finite range (the old
+// test let every landmark through) takes every landmark.
+std::vector<int> landmarksInReach(const EkfSlam& ekf, const LandmarkIndex& index,
+                                  const Eigen::Vector2d& sensor,
+                                  const std::vector<Observation>& observations) {
+  std::vector<int> out;
+  double reach = 0.0;
+  for (const Observation& o : observations) {
+    const double r = RangeBearingModel::range(o.z, o.kind) + kReachMargin;
+    if (!std::isfinite(r)) {
+      out.resize(ekf.numLandmarks());
+      for (std::size_t k = 0; k < out.size(); ++k) out[k] = static_cast<int>(k);
+      return out;
+    }
+    reach = std::max(reach, r);
+  }
+  index.query(ekf, sensor, reach * (1.0 + 1e-9) + 1e-9, &out);
+  // The order of the map (the old loop's), so that everything downstream is the same.
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 }  // namespace
 
 LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const LostScans& lost,
                              const Eigen::Vector3d& dead_reckoned_now,
-                             const LostMappingParams& params) {
+                             const LostMappingParams& params, LandmarkIndex* index) {
   LostScanMapping out;
   if (lost.empty()) return out;
+  LandmarkIndex local;
+  if (index == nullptr) index = &local;
   const double pair_gate = chi2Quantile(params.pair_probability, 2);
   const double new_gate = chi2Quantile(params.new_probability, 2);
   const CloneId now = ekf.addClone();
@@ -116,6 +149,9 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
     later = s->pose;
     ++out.scans;
     const Eigen::Vector2d sensor = model.sensorPose(ekf.pose()).head<2>();
+    // The previous scan's update moved landmarks and added some: O(n), as after any update.
+    index->sync(ekf);
+    const std::vector<int> reach = landmarksInReach(ekf, *index, sensor, s->observations);
     // Candidates within the pairing gate; an observation with two is ambiguous and left alone.
     std::vector<std::tuple<double, std::size_t, LandmarkId>> candidates;
     std::vector<int> in_gate(s->observations.size(), 0);
@@ -123,9 +159,9 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
     for (std::size_t i = 0; i < s->observations.size(); ++i) {
       const Observation& o = s->observations[i];
       const double range = RangeBearingModel::range(o.z, o.kind);
-      for (int k = 0; k < static_cast<int>(ekf.numLandmarks()); ++k) {
+      for (const int k : reach) {
         // Far beyond the observation: not worth the covariance (a generous margin for the pose).
-        if ((ekf.landmark(k) - sensor).norm() > range + 20.0) continue;
+        if ((ekf.landmark(k) - sensor).norm() > range + kReachMargin) continue;
         const double d2 = distance2(ekf, model, o, k);
         if (d2 <= new_gate) near[i] = true;
         if (d2 > pair_gate) continue;

@@ -450,7 +450,7 @@ void SlamPipeline::mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d
   params.pair_probability = config_.lost_map_pair_probability;
   params.new_probability = config_.lost_map_new_probability;
   params.min_sightings = config_.lost_map_min_sightings;
-  const LostScanMapping m = mapLostScans(ekf, model_, lost, dead_reckoned, params);
+  const LostScanMapping m = mapLostScans(ekf, model_, lost, dead_reckoned, params, &index_);
   filter_.restart();
   for (const LandmarkId id : m.paired) book_.paired(id, std::nan(""));
   for (std::size_t j = 0; j < m.created.size(); ++j) {

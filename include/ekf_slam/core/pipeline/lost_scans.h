@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/filter/ekf_slam.h"
+#include "ekf_slam/core/filter/landmark_index.h"
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/filter/observation.h"
 #include "ekf_slam/core/filter/observation_model.h"
@@ -73,8 +74,10 @@ struct LostScanMapping {
 /// Maps `lost` into `ekf`, whose pose is the fixed one at the scan after the newest lost scan
 /// and `dead_reckoned_now` the estimate there before the fix. The pose is the same afterwards
 /// (restored from a clone). The full filter only (a compressed one: flush first, restart after).
+/// Each scan's candidates come from `index` (synced with `ekf` before each scan, so in step with
+/// it on return but for the clutter removed at the end); without one, a local index is built.
 LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const LostScans& lost,
                              const Eigen::Vector3d& dead_reckoned_now,
-                             const LostMappingParams& params);
+                             const LostMappingParams& params, LandmarkIndex* index = nullptr);
 
 }  // namespace ekf_slam

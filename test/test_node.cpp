@@ -248,9 +248,15 @@ TEST(VictoriaPark, NodePublishesEverything) {
     saw_inputs = true;
     EXPECT_EQ(status.level, diagnostic_msgs::DiagnosticStatus::OK) << status.message;
     for (const auto& kv : status.values) {
-      if (kv.key.find("missing") != std::string::npos) EXPECT_EQ(kv.value, "0") << kv.key;
-      if (kv.key == "scans received") EXPECT_EQ(kv.value, std::to_string(counts.scans));
-      if (kv.key == "odometry received") EXPECT_EQ(kv.value, std::to_string(counts.odometry));
+      if (kv.key.find("missing") != std::string::npos) {
+        EXPECT_EQ(kv.value, "0") << kv.key;
+      }
+      if (kv.key == "scans received") {
+        EXPECT_EQ(kv.value, std::to_string(counts.scans));
+      }
+      if (kv.key == "odometry received") {
+        EXPECT_EQ(kv.value, std::to_string(counts.odometry));
+      }
     }
   }
   EXPECT_TRUE(saw_inputs);

@@ -4,6 +4,7 @@
 #include <map>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -760,6 +761,38 @@ TEST(DJNN, BiasTestIsRelativeToTheFiltersMeasuredConsistency) {
   EXPECT_EQ(removed(true, true), std::set<LandmarkId>{});
   EXPECT_EQ(removed(false, false), std::set<LandmarkId>{Scene::idOf(2)});
   EXPECT_EQ(removed(true, false), std::set<LandmarkId>{Scene::idOf(2)});
+}
+
+// A tentative feature 10 m ahead seen three times, then a sighting `offset` m further along the
+// range. Returns its decision and the tentative features left.
+std::pair<Decision, std::size_t> offSighting(double offset, bool tentative_ambiguity) {
+  Scene s;
+  s.build();
+  DJNN d = makeDjnn({{"admit_evidence", "7"},
+                     {"individual_probability", "0.999"},
+                     {"ambiguity_probability", "0.999"},
+                     {"tentative_ambiguity", tentative_ambiguity ? "true" : "false"}});
+  AssociationResult r;
+  for (int k = 1; k <= 4; ++k) {
+    clearScan(&s);
+    s.observePoint({k < 4 ? 10.0 : 10.0 + offset, 0.0});
+    r = d.associate(s.context(0.2 * k));
+  }
+  return {r.decision[0], d.tentativeFeatures().size()};
+}
+
+// One sighting just outside a tentative feature's gate (0.95) but within the ambiguity gate
+// (0.999) would start a second feature and count a miss against the first, splitting the
+// evidence of one landmark (`fiducials`: markers never admitted). With tentative_ambiguity it
+// is withheld. Nearer it is the feature's sighting; farther it is a new feature either way.
+TEST(DJNN, ASightingJustOutsideATentativeGateIsWithheld) {
+  using R = std::pair<Decision, std::size_t>;
+  EXPECT_EQ(offSighting(0.3, true), R(Decision::kTentative, 1u));  // the feature's sighting
+  EXPECT_EQ(offSighting(0.3, false), R(Decision::kTentative, 1u));
+  EXPECT_EQ(offSighting(0.45, true), R(Decision::kRejected, 1u));    // withheld
+  EXPECT_EQ(offSighting(0.45, false), R(Decision::kTentative, 2u));  // a second feature
+  EXPECT_EQ(offSighting(0.7, true), R(Decision::kTentative, 2u));    // another feature
+  EXPECT_EQ(offSighting(0.7, false), R(Decision::kTentative, 2u));
 }
 
 TEST(DJNN, ResetForgetsState) {

@@ -9,6 +9,7 @@ void AmbiguityGate::read(const ParameterReader& r, double individual_probability
   if (p_.ambiguity_probability < individual_probability) {
     r.fail("ambiguity_probability", "must be at least individual_probability");
   }
+  p_.tentative_ambiguity = r.flag("tentative_ambiguity", Params().tentative_ambiguity);
   gate_ = chi2Quantile(p_.ambiguity_probability, 2);
 }
 

@@ -484,6 +484,36 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     tentatives_.move(slot, fused);
   }
 
+  // A sighting paired with no feature but within the wider gate of one left unpaired may be that
+  // feature's, a little off: it neither starts a second feature nor counts as the first's miss
+  // (FeatureRules::withholdGate; the paper has none).
+  tent_withheld_.assign(tent_near_.size(), 0);
+  obs_withheld_.assign(m, 0);
+  const double withhold = rules->withholdGate();
+  if (withhold > 0.0) {
+    for (int i = 0; i < m; ++i) {
+      if (!seen[i].eligible || seen[i].slot >= 0) continue;
+      const Observation& o = ctx.observations()[i];
+      Matrix23d G_pose;
+      Eigen::Matrix2d G_obs;
+      ctx.model().inverse(pose, o.z, o.kind, &G_pose, &G_obs);
+      double lever_var = 0.0;
+      const Eigen::Matrix2d C = rules->gateCovariance(seen[i].cov_obs, G_pose, P_vv, &lever_var);
+      for (int k = 0; k < static_cast<int>(tent_near_.size()); ++k) {
+        if (tent_hit_[k]) continue;
+        const Tentative& t = tentatives_[tent_near_[k]];
+        const Eigen::Vector2d dl = seen[i].heading_lever - t.heading_lever;
+        const Eigen::Matrix2d S = C + t.cov + lever_var * dl * dl.transpose();
+        const Eigen::Vector2d e = seen[i].pos - t.position;
+        if (e.dot(S.inverse() * e) <= withhold) {
+          tent_withheld_[k] = 1;
+          obs_withheld_[i] = 1;
+        }
+      }
+      if (obs_withheld_[i]) ++stats->tentative_withheld;
+    }
+  }
+
   // Tentative features in the region that were not seen this scan: r_k = -1 inside the sensor
   // region, 0 outside (eq. 9); stale ones time out.
   for (int k = 0; k < static_cast<int>(tent_near_.size()); ++k) {
@@ -491,7 +521,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     const int slot = tent_near_[k];
     Tentative& t = tentatives_[slot];
     const Eigen::Vector2d ps = inSensorFrame(*scan, t.position);
-    if (inPenaltyRegion(ps)) {
+    if (inPenaltyRegion(ps) && !tent_withheld_[k]) {
       const double detectable = rules->detectable(ctx, ps.norm());
       t.evidence = model_.bump(t.evidence, model_.step(false, t.cov, detectable));
     }
@@ -504,7 +534,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
 
   // Decisions: admitted when T reaches the admission threshold (eq. 9), else tentative.
   for (int i = 0; i < m; ++i) {
-    if (!seen[i].eligible) continue;
+    if (!seen[i].eligible || obs_withheld_[i]) continue;  // withheld: kRejected this scan
     int slot = seen[i].slot;
     const bool born = slot < 0;
     if (born)

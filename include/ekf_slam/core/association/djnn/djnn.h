@@ -6,6 +6,8 @@
 //   EvidenceModel        detection_probability, clutter_density, max_evidence
 //                                                        sensors that miss landmarks or see clutter
 //   AmbiguityGate        ambiguity_probability           duplicates of a landmark left unpaired
+//                        tentative_ambiguity             a tentative feature split in two by one
+//                                                        sighting just outside its gate
 //   StaticTest           static_*, learn_mover_speed     slow movers admitted as landmarks
 //   BiasTest             bias_*                          landmarks dragged along by movers
 //   FollowPose           tentative_follow_pose           tentative features left behind when
@@ -105,6 +107,7 @@ class DJNN : public DataAssociation, private FeatureRules {
   double detectable(const AssociationContext& ctx, double range) const override {
     return beam_spacing_.detectable(ctx, range);
   }
+  double withholdGate() const override { return ambiguity_.tentativeGate(paper_.tentativeGate()); }
   bool stillStatic(const AssociationContext& ctx, int obs, Tentative* t, const Sighting& s,
                    const Eigen::Matrix2d& C, double stamp) override;
   void started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,

@@ -50,6 +50,8 @@ struct DjnnStats {
   std::uint64_t admitted = 0;           ///< kNew decisions
   std::uint64_t removed = 0;            ///< landmarks returned in result.remove
   std::uint64_t tentative_dropped = 0;
+  std::uint64_t tentative_withheld =
+      0;  ///< sightings withheld near a tentative feature (tentative_ambiguity)
   std::uint64_t static_restarts = 0;      ///< tentative features restarted by the static test
   std::uint64_t biased_removed = 0;       ///< landmarks removed by the innovation-bias test
   std::uint64_t biased_kept = 0;          ///< pairings withdrawn from established landmarks
@@ -135,6 +137,9 @@ class FeatureRules {
   virtual Eigen::Matrix2d sightingNoise() const = 0;
   /// The share of P_D the sensor had at `range` [m] in this scan (the paper: 1).
   virtual double detectable(const AssociationContext& ctx, double range) const = 0;
+  /// A gate wider than the tentative one (chi2 value; the paper: 0, none): a sighting within it
+  /// of a feature it did not pair with is withheld.
+  virtual double withholdGate() const = 0;
   /// A sighting `s` (observation `obs`, noise C) of feature t: false when it shows t is no
   /// static point, which then restarts from this sighting (the paper: always true).
   virtual bool stillStatic(const AssociationContext& ctx, int obs, Tentative* t, const Sighting& s,
@@ -235,6 +240,8 @@ class DjnnPaper {
   // Per-scan scratch.
   std::vector<int> tent_near_;
   std::vector<char> tent_hit_;
+  std::vector<char> tent_withheld_;  // near a withheld sighting this scan: not missed
+  std::vector<char> obs_withheld_;
   std::vector<Sighting> sightings_;
   struct TentativePair {
     double d2;

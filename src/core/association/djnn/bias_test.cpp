@@ -35,18 +35,19 @@ void BiasTest::test(const AssociationContext& ctx, LocalScan* scan, AssociationR
   const int m = scan->observations();
   // Every pairing's discounted sum first, then the scale they share, then the decisions.
   stat_.assign(m, -1.0);
-  nis_.clear();
+  stat_sorted_.clear();
   for (int i = 0; i < m; ++i) {
     const int k = scan->assign[i];
     if (k < 0) continue;
     stat_[i] = accumulate(ctx, i, scan->cand[k]);
-    if (stat_[i] >= 0.0) nis_.push_back(stat_[i]);
+    if (stat_[i] >= 0.0) stat_sorted_.push_back(stat_[i]);
   }
-  if (p_.bias_consistency_scale && nis_.size() >= 3) {
-    std::nth_element(nis_.begin(), nis_.begin() + nis_.size() / 2, nis_.end());
+  if (p_.bias_consistency_scale && stat_sorted_.size() >= 3) {
+    std::nth_element(stat_sorted_.begin(), stat_sorted_.begin() + stat_sorted_.size() / 2,
+                     stat_sorted_.end());
     // The median over the last kScaleScans scans: a persistent over-confidence, not a burst of
     // wrong pairings (a kidnap before it is noticed), which the test must still see.
-    const double ratio = nis_[nis_.size() / 2] / (2.0 * std::log(2.0));
+    const double ratio = stat_sorted_[stat_sorted_.size() / 2] / (2.0 * std::log(2.0));
     if (ratios_.size() < kScaleScans) ratios_.resize(kScaleScans);
     ratios_[scans_ % kScaleScans] = ratio;
     ++scans_;

@@ -426,6 +426,10 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
                           -1, false});
   std::vector<TentativePair>& pairs = tentative_pairs_;
   pairs.clear();
+  // Pairs outside the tentative gate but within the rules' wider one (withheld below).
+  const double withhold = rules->withholdGate();
+  std::vector<TentativePair>& wide = tentative_wide_;
+  wide.clear();
   for (int i = 0; i < m; ++i) {
     const Observation& o = ctx.observations()[i];
     if (result->decision[i] == Decision::kPaired || scan->gated[i]) continue;
@@ -450,7 +454,11 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
       const Eigen::Matrix2d S = C + t.cov + lever_var * dl * dl.transpose();
       const Eigen::Vector2d e = seen[i].pos - t.position;
       const double d2 = e.dot(S.inverse() * e);
-      if (d2 <= tentative_gate_) pairs.push_back({d2, i, k});
+      if (d2 <= tentative_gate_) {
+        pairs.push_back({d2, i, k});
+      } else if (d2 <= withhold) {
+        wide.push_back({d2, i, k});
+      }
     }
   }
   // One-to-one, closest first.
@@ -489,30 +497,12 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
   // (FeatureRules::withholdGate; the paper has none).
   tent_withheld_.assign(tent_near_.size(), 0);
   obs_withheld_.assign(m, 0);
-  const double withhold = rules->withholdGate();
-  if (withhold > 0.0) {
-    for (int i = 0; i < m; ++i) {
-      if (!seen[i].eligible || seen[i].slot >= 0) continue;
-      const Observation& o = ctx.observations()[i];
-      Matrix23d G_pose;
-      Eigen::Matrix2d G_obs;
-      ctx.model().inverse(pose, o.z, o.kind, &G_pose, &G_obs);
-      double lever_var = 0.0;
-      const Eigen::Matrix2d C = rules->gateCovariance(seen[i].cov_obs, G_pose, P_vv, &lever_var);
-      for (int k = 0; k < static_cast<int>(tent_near_.size()); ++k) {
-        if (tent_hit_[k]) continue;
-        const Tentative& t = tentatives_[tent_near_[k]];
-        const Eigen::Vector2d dl = seen[i].heading_lever - t.heading_lever;
-        const Eigen::Matrix2d S = C + t.cov + lever_var * dl * dl.transpose();
-        const Eigen::Vector2d e = seen[i].pos - t.position;
-        if (e.dot(S.inverse() * e) <= withhold) {
-          tent_withheld_[k] = 1;
-          obs_withheld_[i] = 1;
-        }
-      }
-      if (obs_withheld_[i]) ++stats->tentative_withheld;
-    }
+  for (const TentativePair& w : wide) {
+    if (seen[w.obs].slot >= 0 || tent_hit_[w.local]) continue;
+    tent_withheld_[w.local] = 1;
+    obs_withheld_[w.obs] = 1;
   }
+  for (int i = 0; i < m; ++i) stats->tentative_withheld += obs_withheld_[i];
 
   // Tentative features in the region that were not seen this scan: r_k = -1 inside the sensor
   // region, 0 outside (eq. 9); stale ones time out.

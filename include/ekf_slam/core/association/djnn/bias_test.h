@@ -66,8 +66,8 @@ class BiasTest {
   std::unordered_map<LandmarkId, Bias> bias_;
   double scale_ = 1.0;  // median over scans of median(statistic) / median(chi2(2)), at least 1
   std::size_t scans_ = 0;
-  std::vector<double> ratios_;               // the last scans' ratios, a ring
-  std::vector<double> nis_, stat_, window_;  // scratch
+  std::vector<double> ratios_;                       // the last scans' ratios, a ring
+  std::vector<double> stat_sorted_, stat_, window_;  // scratch
 };
 
 }  // namespace ekf_slam

@@ -249,6 +249,7 @@ class DjnnPaper {
     int local;  ///< index into tent_near_
   };
   std::vector<TentativePair> tentative_pairs_;
+  std::vector<TentativePair> tentative_wide_;
 };
 
 }  // namespace ekf_slam

@@ -371,7 +371,14 @@ OfflineSummary writeOfflineReport(const OfflineOptions& o, const BagContents& ba
                    {"relocalisations_unconfirmed", k.relocalisations_unconfirmed},
                    {"lost_path_poses", k.lost_path_poses},
                    {"rederived_tracked_poses", k.rederived_tracked_poses},
-                   {"discarded_landmarks", k.discarded_landmarks}};
+                   {"discarded_landmarks", k.discarded_landmarks},
+                   {"suppressed_new", k.suppressed_new},
+                   {"frozen_new", k.frozen_new},
+                   {"frozen_removals", k.frozen_removals},
+                   {"resets", k.resets},
+                   {"delayed_sightings", k.delayed_sightings},
+                   {"rejected_delayed_updates", k.rejected_delayed_updates},
+                   {"dropped_sightings", k.dropped_sightings}};
   j["relocaliser"] = loop.relocaliser;
   j["lost_at_end"] = pipeline.lost();
   j["relocalisation_us_median"] = number(quantile(record.relocalisation_us, 0.5));

@@ -163,6 +163,53 @@ TEST(DelayedSightings, ADroppedFeatureLeavesTheStateAsIfNeverSeen) {
   expectSameState(dropped.ekf(), never.ekf(), 1e-12);
 }
 
+// Landmark 1 mapped at scan 0; scans 1-5 hold its sightings as tentative feature 17 (DJNN's held
+// sightings at a loop closure); scan 6 pairs it and names feature 17 (`name`), then it is
+// paired. Named, the kept sightings reach the landmark: the state is that of pairing every scan.
+ScriptedAssociator::Script joinScript(bool name) {
+  return [name](int scan, const AssociationContext& ctx) {
+    AssociationResult r;
+    r.resize(ctx.numObservations());
+    if (scan == 0) {
+      r.decision[0] = r.decision[1] = Decision::kNew;
+      return r;
+    }
+    r.pair(0, 0);
+    if (scan <= 5) {
+      r.decision[1] = Decision::kTentative;
+      r.feature[1] = 17;
+    } else {
+      r.pair(1, 1);
+      if (scan == 6 && name) {
+        r.feature[1] = 17;
+        r.ended_features.push_back(17);
+      }
+    }
+    return r;
+  };
+}
+
+TEST(DelayedSightings, AFeatureThatJoinsAMappedLandmarkHandsItItsSightings) {
+  auto joined_assoc = std::make_shared<ScriptedAssociator>(joinScript(true));
+  SlamPipeline joined(linearConfig(), joined_assoc);
+  EXPECT_GE(drive(&joined, [](int) { return true; }), 5u);
+  EXPECT_EQ(joined.counters().delayed_sightings, 5u);
+  auto now_assoc = std::make_shared<ScriptedAssociator>(nullptr);
+  *now_assoc = ScriptedAssociator(delayedScript(0, &now_assoc->added));
+  SlamPipeline now(linearConfig(), now_assoc);
+  drive(&now, [](int) { return true; });
+  expectSameState(joined.ekf(), now.ekf(), 1e-9);
+
+  // Not named: the held sightings are let go when the feature ends (the test tells them apart).
+  auto lost_assoc = std::make_shared<ScriptedAssociator>(joinScript(false));
+  SlamPipeline lost(linearConfig(), lost_assoc);
+  drive(&lost, [](int) { return true; });
+  EXPECT_EQ(lost.counters().delayed_sightings, 0u);
+  const int idx = lost.ekf().indexOf(1);
+  EXPECT_GT(lost.ekf().landmarkCovariance(idx).trace(),
+            1.2 * now.ekf().landmarkCovariance(now.ekf().indexOf(1)).trace());
+}
+
 TEST(DelayedSightings, CloneCountIsCapped) {
   PipelineConfig c = linearConfig();
   c.max_pose_clones = 3;

@@ -3,6 +3,7 @@
 // row, the scan shifted by two spacings pairs every observation while the truth leaves the hole's
 // observation "not in the map", and the likelihood prefers the shift. The remembered feature (its
 // offset from a landmark paired at the time) explains that observation instead.
+#include <algorithm>
 #include <map>
 #include <string>
 #include <vector>
@@ -106,6 +107,48 @@ TEST(DJNNRemembered, HoleIsExplainedAndTheTruthDecided) {
     } else {
       EXPECT_EQ(c.right, 0);
       EXPECT_EQ(d.stats().joint_held, 4u);
+    }
+  }
+}
+
+// Held sightings (docs/djnn.md, "Sightings held at a closure"): the held scan's observations feed
+// tentative features that are never admitted; when the next scan, its pose now known, decides the
+// closure, each pairing names the held feature of its marker, whose sightings the pipeline then
+// applies to the landmark (core/pipeline/delayed_sightings.h). Off, the pairings name none.
+TEST(DJNNRemembered, HeldSightingsJoinTheirLandmarkOnceDecided) {
+  for (const bool join : {false, true}) {
+    std::map<std::string, std::string> p = {{"loop_closure_age", "30"},
+                                            {"landmark_density", "0.3"},
+                                            {"individual_probability", "0.999"},
+                                            {"ambiguity_probability", "0.999"},
+                                            {"admit_evidence", "3"},
+                                            {"remembered_sightings", "2"},
+                                            {"held_sightings", join ? "true" : "false"}};
+    DJNN d = makeDjnn(p);
+    std::vector<FeatureKey> held;
+    for (const double sd : {0.8, 0.02}) {
+      Scene s;
+      const std::vector<int> index = rowWithHole(&s, sd);
+      for (int k = 4; k <= 7; ++k) s.observePoint(marker(k));
+      const AssociationResult r = d.associate(s.context(sd > 0.5 ? 100.0 : 100.2));
+      if (sd > 0.5) {  // the near tie: held, each observation a tentative feature of its own
+        for (std::size_t i = 0; i < r.decision.size(); ++i) {
+          EXPECT_EQ(r.decision[i], Decision::kTentative);
+          held.push_back(r.feature[i]);
+        }
+        EXPECT_EQ(d.stats().joint_held, 4u);
+        continue;
+      }
+      for (std::size_t i = 0; i < r.decision.size(); ++i) {
+        ASSERT_EQ(r.decision[i], Decision::kPaired);
+        EXPECT_EQ(r.landmark[i], Scene::idOf(index[4 + i]));
+        EXPECT_EQ(r.feature[i], join ? held[i] : kNoFeature);
+        // Either way the held feature ends (off: missed, its sightings let go).
+        EXPECT_NE(std::find(r.ended_features.begin(), r.ended_features.end(), held[i]),
+                  r.ended_features.end());
+      }
+      EXPECT_EQ(d.stats().held_joined, join ? 4u : 0u);
+      EXPECT_TRUE(d.tentativeFeatures().empty());
     }
   }
 }

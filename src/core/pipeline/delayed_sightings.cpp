@@ -14,11 +14,13 @@ bool DelayedSightings::admit(ScanReport* report) {
   admitted_.clear();
   report->delayed_sightings.clear();
   for (std::size_t i = 0; i < a.decision.size(); ++i) {
-    if (a.decision[i] != Decision::kNew || i >= a.feature.size()) continue;
+    const bool joins = a.decision[i] == Decision::kNew || a.decision[i] == Decision::kPaired;
+    if (!joins || i >= a.feature.size() || a.feature[i] == kNoFeature) continue;
     const auto it = features_.find(a.feature[i]);
     if (it == features_.end()) continue;
     admitted_.push_back(it->first);
-    if (a.landmark[i] == kNoLandmark) continue;  // not initialised: nothing to apply
+    // Not initialised, or removed in this scan: nothing to apply.
+    if (a.landmark[i] == kNoLandmark || !filter_.ekf().contains(a.landmark[i])) continue;
     for (const Kept& k : it->second) {
       batch_.push_back(Pairing{a.landmark[i], k.z, k.R, k.kind, k.clone});
       report->delayed_sightings.push_back({k.scan, k.observation, a.landmark[i]});

@@ -40,10 +40,11 @@ struct AssociationResult {
   std::vector<LandmarkId> landmark;  ///< one per observation; kNoLandmark unless kPaired
   std::vector<LandmarkId> remove;    ///< map landmarks to delete (e.g. DJNN's exit rule)
   /// One per observation: for kTentative, the feature it is a sighting of; for kNew, the feature
-  /// it admits (kNoFeature: none, or the associator does not say). The pipeline keeps a feature's
-  /// sightings against clones of their poses and applies them when the feature is admitted
-  /// (core/pipeline/delayed_sightings.h); a feature's key must change when its earlier sightings
-  /// stop counting (e.g. DJNN's static test restarts it).
+  /// it admits; for kPaired, a feature found to be that landmark (DJNN's held sightings), else
+  /// kNoFeature (none, or the associator does not say). The pipeline keeps a feature's sightings
+  /// against clones of their poses and applies them to the landmark when the feature is admitted
+  /// or joins it (core/pipeline/delayed_sightings.h); a feature's key must change when its earlier
+  /// sightings stop counting (e.g. DJNN's static test restarts it).
   std::vector<FeatureKey> feature;
   /// Features no longer tracked (dropped, restarted or admitted): their sightings are let go.
   std::vector<FeatureKey> ended_features;

@@ -3,8 +3,9 @@
 // map) marks them kTentative with a feature key. Each such scan clones the pose into the state
 // (EkfSlam::addClone), and the sightings are kept with the clone of the pose they were taken
 // from. When the feature is admitted, the landmark is created from its last sighting as before
-// and the earlier ones are applied in one batch update against their clones; a feature that is
-// dropped only lets its clones go, which leaves the state exactly as if it had never been seen.
+// and the earlier ones are applied in one batch update against their clones (so too when the
+// associator finds a feature to be a landmark already mapped: AssociationResult::feature of a
+// pairing); a feature that is dropped only lets its clones go, which leaves the state exactly as if it had never been seen.
 // The clones cost 3 state rows each: at most max_pose_clones are kept (the oldest go first).
 #pragma once
 
@@ -32,7 +33,8 @@ class DelayedSightings {
   /// On: delayed_sightings, the full EKF (the compressed one keeps no clones) and slam mode.
   bool enabled() const;
   /// After the scan's update and its new landmarks (kNew entries carry their ids): every new
-  /// landmark's earlier sightings in one batch update against their clones
+  /// landmark's earlier sightings, and those of features that joined a paired landmark, in one
+  /// batch update against their clones
   /// (report->delayed_sightings, delayed_nis). True when the state changed.
   bool admit(ScanReport* report);
   /// Keeps this scan's sightings of tentative features against a clone of the current pose, lets

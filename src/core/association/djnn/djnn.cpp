@@ -60,6 +60,8 @@ void DJNN::configure(const ParameterSource& user) {
   occlusion.read(r, paper.individual_probability);
   BeamSpacingMisses beam_spacing;
   beam_spacing.read(r);
+  HeldSightings held_sightings;
+  held_sightings.read(r);
 
   p.paper = paper;
   p.ambiguity = ambiguity.params();
@@ -74,6 +76,7 @@ void DJNN::configure(const ParameterSource& user) {
   p.confirmation = confirmation.params();
   p.occlusion = occlusion.params();
   p.beam_spacing = beam_spacing.params();
+  p.held_sightings = held_sightings.params();
   p_ = p;
   ambiguity_ = ambiguity;
   static_test_ = static_test;
@@ -87,6 +90,7 @@ void DJNN::configure(const ParameterSource& user) {
   bias_test_ = bias;
   occlusion_ = occlusion;
   beam_spacing_ = beam_spacing;
+  held_sightings_ = held_sightings;
 
   paper_.configure(p_.paper, p_.max_evidence);
   density_test_.configure(p_.paper.sensor);
@@ -175,6 +179,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
     bias_test_.forget(result.remove[k]);
   bias_test_.sweep(ctx.ekf());
   static_test_.beginScan(ctx.ekf().poseCovariance());
+  held_sightings_.join(ctx, scan_, this, &paper_, &result, &stats_);
   paper_.countFeatureEvidence(ctx, &scan_, &result, this, &stats_);
 
   trackAdmitted(ctx, result);

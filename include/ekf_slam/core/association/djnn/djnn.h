@@ -25,6 +25,8 @@
 //                                                        removed as missed
 //   BeamSpacingMisses    beam_spacing_misses             thin poles that fall between the beams
 //                                                        removed, or dropped while tentative
+//   HeldSightings        held_sightings                  the sightings held at a closure dropped
+//                                                        once it is decided
 //
 // associate() reads as the paper's steps with the parts' calls between them.
 #pragma once
@@ -44,6 +46,7 @@
 #include "ekf_slam/core/association/djnn/djnn_paper.h"
 #include "ekf_slam/core/association/djnn/follow_pose.h"
 #include "ekf_slam/core/association/djnn/held_confirmation.h"
+#include "ekf_slam/core/association/djnn/held_sightings.h"
 #include "ekf_slam/core/association/djnn/joint_decision.h"
 #include "ekf_slam/core/association/djnn/landmark_spacing.h"
 #include "ekf_slam/core/association/djnn/local_scan.h"
@@ -75,6 +78,7 @@ class DJNN : public DataAssociation, private FeatureRules {
     HeldConfirmation::Params confirmation;
     OccludedMisses::Params occlusion;
     BeamSpacingMisses::Params beam_spacing;
+    HeldSightings::Params held_sightings;
   };
 
   DJNN();
@@ -135,6 +139,7 @@ class DJNN : public DataAssociation, private FeatureRules {
   HeldConfirmation confirmation_;
   OccludedMisses occlusion_;
   BeamSpacingMisses beam_spacing_;
+  HeldSightings held_sightings_;
 
   LocalScan scan_;
   std::vector<double> pending_new_;    ///< per observation of the last scan: T at admission, or -1

@@ -69,6 +69,8 @@ struct DjnnStats {
   std::uint64_t held_streak_scans = 0;  ///< scans in those runs
   /// Misses not counted: the landmark was hidden behind a nearer return (OccludedMisses).
   std::uint64_t hidden_misses = 0;
+  /// Features born held that joined the landmark a later sighting paired (HeldSightings).
+  std::uint64_t held_joined = 0;
 };
 
 /// The paper's parameters (names as read; defaults in docs/djnn.md).

@@ -158,7 +158,9 @@ TEST(RRWSC, ConfirmedPriorPairsByTheFiltersJointMaximumLikelihood) {
     for (std::size_t i = 0; i < r.decision.size(); ++i) {
       const bool paired = expected.decision[i] == Decision::kPaired;
       EXPECT_EQ(r.decision[i] == Decision::kPaired, paired) << seed << " " << i;
-      if (paired) EXPECT_EQ(r.landmark[i], expected.landmark[i]) << seed << " " << i;
+      if (paired) {
+        EXPECT_EQ(r.landmark[i], expected.landmark[i]) << seed << " " << i;
+      }
     }
     RRWSC graph_only;
     graph_only.configure(

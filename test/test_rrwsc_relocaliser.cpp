@@ -56,7 +56,9 @@ TEST(RRWSCRelocaliser, FindsKidnappedScansWithoutAPrior) {
     EXPECT_LT(nees(r, pose), 25.0) << trial;  // the covariance is not far too optimistic
     int right = 0;
     for (std::size_t i = 0; i < scan.truth.size(); ++i) {
-      if (r.landmark[i] != kNoLandmark) EXPECT_EQ(r.landmark[i], 1000 + scan.truth[i]) << trial;
+      if (r.landmark[i] != kNoLandmark) {
+        EXPECT_EQ(r.landmark[i], 1000 + scan.truth[i]) << trial;
+      }
       right += r.landmark[i] == 1000 + scan.truth[i];
     }
     EXPECT_GE(right, 34) << trial;  // of 38; far ones with 3 deg noise may miss the gate

@@ -50,7 +50,9 @@ TEST(ShapeContext, DistinguishesThePointsOfARandomSet) {
     own_best += best == i;
     // Another point's descriptor is never as close as the point's own.
     for (std::size_t j = 0; j < b.size(); ++j) {
-      if (j != i) EXPECT_GT(shapeContextDistance(a[i], b[j]), 0.01);
+      if (j != i) {
+        EXPECT_GT(shapeContextDistance(a[i], b[j]), 0.01);
+      }
     }
   }
   EXPECT_EQ(own_best, 30);

@@ -407,6 +407,16 @@ void DjnnPaper::dropFeature(int slot, bool stale, FeatureRules* rules) {
   tentatives_.remove(slot);
 }
 
+double DjnnPaper::tentativeDistance2(const Eigen::Vector2d& pos, const Eigen::Vector2d& lever,
+                                     const Eigen::Matrix2d& C, double lever_var,
+                                     const Tentative& t) {
+  // A heading error common to both moves each by its lever: they differ by the change of lever.
+  const Eigen::Vector2d dl = lever - t.heading_lever;
+  const Eigen::Matrix2d S = C + t.cov + lever_var * dl * dl.transpose();
+  const Eigen::Vector2d e = pos - t.position;
+  return e.dot(S.inverse() * e);
+}
+
 void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* scan,
                                      AssociationResult* result, FeatureRules* rules,
                                      DjnnStats* stats) {
@@ -449,11 +459,8 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     double lever_var = 0.0;
     const Eigen::Matrix2d C = rules->gateCovariance(seen[i].cov_obs, G_pose, P_vv, &lever_var);
     for (int k = 0; k < static_cast<int>(tent_near_.size()); ++k) {
-      const Tentative& t = tentatives_[tent_near_[k]];
-      const Eigen::Vector2d dl = seen[i].heading_lever - t.heading_lever;
-      const Eigen::Matrix2d S = C + t.cov + lever_var * dl * dl.transpose();
-      const Eigen::Vector2d e = seen[i].pos - t.position;
-      const double d2 = e.dot(S.inverse() * e);
+      const double d2 = tentativeDistance2(seen[i].pos, seen[i].heading_lever, C, lever_var,
+                                           tentatives_[tent_near_[k]]);
       if (d2 <= tentative_gate_) {
         pairs.push_back({d2, i, k});
       } else if (d2 <= withhold) {

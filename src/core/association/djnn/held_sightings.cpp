@@ -40,10 +40,7 @@ void HeldSightings::join(const AssociationContext& ctx, const LocalScan& scan, F
     for (int slot : near) {
       const Tentative& t = set[slot];
       if (!t.alive || !t.held_birth || t.last_seen >= scan.stamp) continue;
-      const Eigen::Vector2d dl = G_pose.col(2) - t.heading_lever;
-      const Eigen::Matrix2d S = C + t.cov + lever_var * dl * dl.transpose();
-      const Eigen::Vector2d e = pos - t.position;
-      const double d2 = e.dot(S.inverse() * e);
+      const double d2 = DjnnPaper::tentativeDistance2(pos, G_pose.col(2), C, lever_var, t);
       if (d2 <= paper->tentativeGate() && d2 < best_d2) {
         best = slot;
         best_d2 = d2;

@@ -177,6 +177,10 @@ class DjnnPaper {
   }
   /// A point (map frame) in the frame of the scan's sensor.
   static Eigen::Vector2d inSensorFrame(const LocalScan& scan, const Eigen::Vector2d& p);
+  /// The tentative gate's statistic d^2 of a sighting at `pos` with heading lever `lever` and
+  /// gate covariance `C` (FeatureRules::gateCovariance, with its `lever_var`) against feature t.
+  static double tentativeDistance2(const Eigen::Vector2d& pos, const Eigen::Vector2d& lever,
+                                   const Eigen::Matrix2d& C, double lever_var, const Tentative& t);
 
   /// 1. The local region (eq. 10) and its valid part (eq. 7): scan->cand, cand_valid.
   void localRegion(const AssociationContext& ctx, LocalScan* scan) const;

@@ -5,7 +5,8 @@
 // from. When the feature is admitted, the landmark is created from its last sighting as before
 // and the earlier ones are applied in one batch update against their clones (so too when the
 // associator finds a feature to be a landmark already mapped: AssociationResult::feature of a
-// pairing); a feature that is dropped only lets its clones go, which leaves the state exactly as if it had never been seen.
+// pairing); a feature that is dropped only lets its clones go, which leaves the state exactly as
+// if it had never been seen.
 // The clones cost 3 state rows each: at most max_pose_clones are kept (the oldest go first).
 #pragma once
 
@@ -34,8 +35,8 @@ class DelayedSightings {
   bool enabled() const;
   /// After the scan's update and its new landmarks (kNew entries carry their ids): every new
   /// landmark's earlier sightings, and those of features that joined a paired landmark, in one
-  /// batch update against their clones
-  /// (report->delayed_sightings, delayed_nis). True when the state changed.
+  /// batch update against their clones (report->delayed_sightings, delayed_nis). True when the
+  /// state changed.
   bool admit(ScanReport* report);
   /// Keeps this scan's sightings of tentative features against a clone of the current pose, lets
   /// the ended features go, and drops the oldest clones beyond max_pose_clones.

@@ -149,6 +149,33 @@ TEST(DJNNDetection, TentativeFeatureSurvivesAMissAtLowDetectionProbability) {
 
 // The sensor region of eq. 9 honours the minimum range and the polygon: landmarks closer than
 // min_range or outside the polygon are not penalised; one inside it is.
+// At a fix the pipeline hands DJNN each landmark it mapped from the lost scans with what every
+// lost scan saw (DataAssociation::landmarkFromLostScans). DJNN counts its evidence over them as
+// tracking would have: from the first sighting, +1 seen and -1 missed inside the penalty region
+// (P_D = 1), admitted at admit_evidence, removed at remove_evidence. Kept only if it ends admitted.
+TEST(DJNNDetection, LostScansAreWeighedByTheEvidenceTrackingWouldHaveCounted) {
+  const auto look = [](char c) {
+    LostLook l;
+    l.seen = c == 'H';
+    l.in_sensor = c == '.' ? Eigen::Vector2d(100.0, 0.0) : Eigen::Vector2d(10.0, 1.0);
+    return l;
+  };
+  const auto replay = [&](const std::string& seq, LandmarkId id, DJNN* d) {
+    std::vector<LostLook> looks;
+    for (char c : seq) looks.push_back(look(c));
+    return d->landmarkFromLostScans(id, assoc_test::diag2(0.01, 0.01), looks);
+  };
+  DJNN d = makeDjnn();  // admit_evidence 2, remove_evidence 0
+  EXPECT_TRUE(replay("HHHm", 1, &d));
+  EXPECT_EQ(d.evidence(1), 2);
+  EXPECT_FALSE(replay("HHmm", 2, &d));   // admitted, then missed back to 0: removed
+  EXPECT_TRUE(replay("mmmHH", 3, &d));   // misses before its first sighting do not count
+  EXPECT_TRUE(replay("HH...", 4, &d));   // nor those outside the penalty region
+  EXPECT_FALSE(replay("H....", 5, &d));  // seen once: still tentative
+  EXPECT_TRUE(replay("HmHH", 6, &d));    // dropped while tentative, started again, admitted
+  EXPECT_EQ(d.evidence(6), 2);
+}
+
 TEST(DJNNDetection, MinimumRangeAndPolygonBoundThePenaltyRegion) {
   Scene s;
   const int seen = s.addLandmark({3, 0});

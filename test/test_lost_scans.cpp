@@ -65,7 +65,9 @@ struct LostDrive {
   LostScans lost;
   Eigen::Vector3d truth_now, dead_reckoned_now;
 
-  explicit LostDrive(int sightings) {
+  // `sightings`: the unmapped tree is seen in the first that many scans; `always_a`: every scan
+  // also sees mapped tree a (so that the scans without the unmapped tree are kept too).
+  explicit LostDrive(int sightings, bool always_a = false) {
     Eigen::Vector3d truth = start;
     for (int k = 0; k < 5; ++k) {
       const MotionStep step = forward(truth, 1.0);
@@ -75,6 +77,7 @@ struct LostDrive {
       truth = step.pose;
       std::vector<Observation> seen;
       if (k < sightings) seen.push_back(observe(truth, unmapped));
+      if (always_a) seen.push_back(observe(truth, mapped_a));
       lost.add(static_cast<std::uint32_t>(k), composePose(offset, truth), seen);
     }
     // One more step to the fix's scan.
@@ -130,6 +133,26 @@ TEST(MapLostScans, AFeatureSeenTooFewTimesIsDropped) {
   // Seen only at its initialisation and once more: the second sighting is information the pose
   // and map keep; nothing is made worse.
   EXPECT_LE(ekf.covariance().trace(), P.trace() + 1e-9);
+}
+
+// What the associator weighs at the fix (DataAssociation::landmarkFromLostScans): every kept lost
+// scan, oldest first, whether it saw the new landmark, and where the landmark lay in its sensor
+// frame.
+TEST(MapLostScans, TheLooksListEveryLostScanOldestFirst) {
+  const LostDrive drive(3, true);
+  EkfSlam ekf = drive.fixedFilter();
+  const LostScanMapping m = mapLostScans(ekf, kModel, drive.lost, drive.dead_reckoned_now, {});
+  ASSERT_EQ(m.created.size(), 1u);
+  ASSERT_EQ(m.looks.size(), 1u);
+  ASSERT_EQ(m.looks[0].size(), 5u);
+  Eigen::Vector3d truth = drive.start;
+  for (int k = 0; k < 5; ++k) {
+    truth = forward(truth, 1.0).pose;
+    EXPECT_EQ(m.looks[0][k].seen, k < 3) << k;
+    const Eigen::Vector3d s = kModel.sensorPose(truth);
+    const Eigen::Vector2d expected = rotation2d(-s.z()) * (drive.unmapped - s.head<2>());
+    EXPECT_LT((m.looks[0][k].in_sensor - expected).norm(), 0.3) << k;
+  }
 }
 
 TEST(MapLostScans, ACallersIndexOfAnyCellSizeMapsTheSameAndEndsInStep) {

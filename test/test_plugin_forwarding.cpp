@@ -78,6 +78,12 @@ class RecordingAssociator : public DataAssociation {
   void landmarkLoaded(LandmarkId id, std::uint32_t times) override {
     calls.push_back("landmarkLoaded " + std::to_string(id) + " " + std::to_string(times));
   }
+  bool landmarkFromLostScans(LandmarkId id, const Eigen::Matrix2d&,
+                             const std::vector<LostLook>& looks) override {
+    calls.push_back("landmarkFromLostScans " + std::to_string(id) + " " +
+                    std::to_string(looks.size()));
+    return false;
+  }
   void poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& posterior) override {
     calls.push_back("poseCorrected " + std::to_string(prior.x()) + " " +
                     std::to_string(posterior.x()));
@@ -91,7 +97,7 @@ class RecordingAssociator : public DataAssociation {
 
 TEST(PluginForwarding, AssociatorWrapperForwardsEveryHook) {
   expectEveryVirtualForwarded("core/association/data_association.h", "DataAssociation",
-                              "ForwardingAssociator", 9);
+                              "ForwardingAssociator", 10);
   auto inner = std::make_shared<RecordingAssociator>();
   ForwardingAssociator wrapper(inner);
   wrapper.configure(MapParameterSource(std::map<std::string, std::string>{{"gate", "7"}}));
@@ -105,14 +111,17 @@ TEST(PluginForwarding, AssociatorWrapperForwardsEveryHook) {
   EXPECT_EQ(r.decision[0], Decision::kNew);
   wrapper.landmarkAdded(0, 42);
   wrapper.landmarkLoaded(43, 5);
+  EXPECT_FALSE(
+      wrapper.landmarkFromLostScans(44, Eigen::Matrix2d::Identity(), std::vector<LostLook>(3)));
   wrapper.poseCorrected(Eigen::Vector3d(1.0, 0.0, 0.0), Eigen::Vector3d(2.0, 0.0, 0.0));
   wrapper.reset();
   EXPECT_EQ(wrapper.evidence(9), 10);
   ASSERT_EQ(wrapper.tentativeFeatures().size(), 1u);
   EXPECT_EQ(wrapper.tentativeFeatures()[0].evidence, 3);
-  EXPECT_EQ(inner->calls, (std::vector<std::string>{"configure 7.000000", "associate 1",
-                                                    "landmarkAdded 0 42", "landmarkLoaded 43 5",
-                                                    "poseCorrected 1.000000 2.000000", "reset"}));
+  EXPECT_EQ(inner->calls,
+            (std::vector<std::string>{"configure 7.000000", "associate 1", "landmarkAdded 0 42",
+                                      "landmarkLoaded 43 5", "landmarkFromLostScans 44 3",
+                                      "poseCorrected 1.000000 2.000000", "reset"}));
 }
 
 // --- Relocaliser ---------------------------------------------------------------------------------

@@ -143,12 +143,15 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
   std::vector<double> descriptor_sum;
   std::vector<int> descriptor_count;
   Eigen::Vector3d later = dead_reckoned_now;
+  std::vector<Eigen::Vector3d> sensor_poses;      // per scan carried back to, newest first
+  std::vector<std::vector<std::size_t>> seen_at;  // per created landmark: those scans' indices
   // Newest first: each step carries the state back by one stretch of odometry.
   for (auto s = lost.scans().rbegin(); s != lost.scans().rend(); ++s) {
     if (!carryBack(ekf, *s, later)) break;
     later = s->pose;
     ++out.scans;
-    const Eigen::Vector2d sensor = model.sensorPose(ekf.pose()).head<2>();
+    sensor_poses.push_back(model.sensorPose(ekf.pose()));
+    const Eigen::Vector2d sensor = sensor_poses.back().head<2>();
     // The previous scan's update moved landmarks and added some: O(n), as after any update.
     index->sync(ekf);
     const std::vector<int> reach = landmarksInReach(ekf, *index, sensor, s->observations);
@@ -191,6 +194,7 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
       }
       const std::size_t j = static_cast<std::size_t>(c - created.begin());
       ++seen[j];
+      seen_at[j].push_back(sensor_poses.size() - 1);
     }
     // What no landmark explains is new: initialised at this scan's pose, which carries the
     // odometry chain's correlation with the fixed pose and the map.
@@ -201,6 +205,7 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
       if (id == kNoLandmark) continue;
       created.push_back(id);
       seen.push_back(1);
+      seen_at.push_back({sensor_poses.size() - 1});
       descriptor_sum.push_back(std::isfinite(o.descriptor) ? o.descriptor : 0.0);
       descriptor_count.push_back(std::isfinite(o.descriptor) ? 1 : 0);
     }
@@ -229,6 +234,15 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
     }
     out.created.push_back(created[j]);
     out.sightings.push_back(seen[j]);
+    // Oldest first: the scans were carried back to newest first.
+    const Eigen::Vector2d m = ekf.landmark(ekf.indexOf(created[j]));
+    std::vector<LostLook> looks(sensor_poses.size());
+    for (std::size_t k = 0; k < sensor_poses.size(); ++k) {
+      const Eigen::Vector3d& s = sensor_poses[sensor_poses.size() - 1 - k];
+      looks[k].in_sensor = rotation2d(-s.z()) * (m - s.head<2>());
+    }
+    for (std::size_t k : seen_at[j]) looks[sensor_poses.size() - 1 - k].seen = true;
+    out.looks.push_back(std::move(looks));
     out.descriptors.push_back(descriptor_count[j] > 0 ? descriptor_sum[j] / descriptor_count[j]
                                                       : std::nan(""));
   }

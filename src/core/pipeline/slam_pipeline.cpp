@@ -451,16 +451,30 @@ void SlamPipeline::mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d
   params.new_probability = config_.lost_map_new_probability;
   params.min_sightings = config_.lost_map_min_sightings;
   const LostScanMapping m = mapLostScans(ekf, model_, lost, dead_reckoned, params, &index_);
+  // The associator weighs each new landmark by its own rules over the lost scans (DJNN: its
+  // evidence, misses included) and may have removed it by now.
+  std::vector<char> kept(m.created.size(), 0);
+  int n_kept = 0;
+  for (std::size_t j = 0; j < m.created.size(); ++j) {
+    const LandmarkId id = m.created[j];
+    kept[j] =
+        associator_->landmarkFromLostScans(id, ekf.landmarkCovariance(ekf.indexOf(id)), m.looks[j]);
+    if (kept[j]) {
+      ++n_kept;
+    } else {
+      ekf.removeLandmark(id);
+      ++counters_.lost_map_removed;
+    }
+  }
   filter_.restart();
   for (const LandmarkId id : m.paired) book_.paired(id, std::nan(""));
   for (std::size_t j = 0; j < m.created.size(); ++j) {
+    if (!kept[j]) continue;
     book_.created(m.created[j], m.descriptors[j], report->scan);
     for (std::uint32_t k = 1; k < m.sightings[j]; ++k) book_.paired(m.created[j], std::nan(""));
-    // The associator takes them as landmarks seen this often (DJNN: established).
-    associator_->landmarkLoaded(m.created[j], m.sightings[j]);
   }
   index_.sync(ekf);
-  report->lost_map_landmarks = static_cast<int>(m.created.size());
+  report->lost_map_landmarks = n_kept;
   report->lost_map_pairings = static_cast<int>(m.paired.size());
 }
 

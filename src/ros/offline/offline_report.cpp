@@ -378,7 +378,8 @@ OfflineSummary writeOfflineReport(const OfflineOptions& o, const BagContents& ba
                    {"resets", k.resets},
                    {"delayed_sightings", k.delayed_sightings},
                    {"rejected_delayed_updates", k.rejected_delayed_updates},
-                   {"dropped_sightings", k.dropped_sightings}};
+                   {"dropped_sightings", k.dropped_sightings},
+                   {"lost_map_removed", k.lost_map_removed}};
   j["relocaliser"] = loop.relocaliser;
   j["lost_at_end"] = pipeline.lost();
   j["relocalisation_us_median"] = number(quantile(record.relocalisation_us, 0.5));

@@ -68,6 +68,14 @@ struct AssociationResult {
   }
 };
 
+/// One scan processed while lost, as a landmark mapped from the lost scans saw it
+/// (DataAssociation::landmarkFromLostScans): seen in it or not, and where it lay in the scan's
+/// sensor frame.
+struct LostLook {
+  bool seen = false;
+  Eigen::Vector2d in_sensor = Eigen::Vector2d::Zero();
+};
+
 /// A feature the associator tracks outside the map (for display only).
 struct TentativeFeature {
   Eigen::Vector2d position;
@@ -97,6 +105,18 @@ class DataAssociation {
   /// `times_observed` scans. Associators with per-landmark state (evidence) initialise it here,
   /// so that a reused map is not thrown away before the data had a chance to confirm it.
   virtual void landmarkLoaded(LandmarkId /*id*/, std::uint32_t /*times_observed*/) {}
+
+  /// At a fix, the pipeline mapped landmark `id` (covariance `cov`) from the scans processed
+  /// while lost (docs/relocalisation.md); `looks` holds every such scan, oldest first. False: the
+  /// associator's own rules would have removed it by now, and the pipeline removes it. The
+  /// default takes it as a landmark seen that often (landmarkLoaded) and keeps it.
+  virtual bool landmarkFromLostScans(LandmarkId id, const Eigen::Matrix2d& /*cov*/,
+                                     const std::vector<LostLook>& looks) {
+    std::uint32_t seen = 0;
+    for (const LostLook& l : looks) seen += l.seen;
+    landmarkLoaded(id, seen);
+    return true;
+  }
 
   /// The EKF update of the last associate() call moved the pose estimate from `prior` to
   /// `posterior` (x, y, heading; map frame). Associators that keep features outside the map,
@@ -130,6 +150,10 @@ class ForwardingAssociator : public DataAssociation {
   void landmarkAdded(int obs, LandmarkId id) override { inner_->landmarkAdded(obs, id); }
   void landmarkLoaded(LandmarkId id, std::uint32_t times_observed) override {
     inner_->landmarkLoaded(id, times_observed);
+  }
+  bool landmarkFromLostScans(LandmarkId id, const Eigen::Matrix2d& cov,
+                             const std::vector<LostLook>& looks) override {
+    return inner_->landmarkFromLostScans(id, cov, looks);
   }
   void poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& posterior) override {
     inner_->poseCorrected(prior, posterior);

@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 
+#include "ekf_slam/core/association/data_association.h"  // LostLook
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/landmark_index.h"
 #include "ekf_slam/core/filter/motion_models.h"
@@ -65,6 +66,10 @@ struct LostMappingParams {
 struct LostScanMapping {
   std::vector<LandmarkId> created;
   std::vector<std::uint32_t> sightings;
+  /// Per created landmark: every lost scan carried back to, oldest first, with whether it saw the
+  /// landmark and where it lay in that scan's sensor frame (its final estimate, the scan's
+  /// carried-back pose).
+  std::vector<std::vector<LostLook>> looks;
   std::vector<double> descriptors;  // NaN when unknown
   std::vector<LandmarkId> paired;   // landmarks of the map before, once per pairing
   int scans = 0;                    // scans carried back to

@@ -171,6 +171,9 @@ struct PipelineCounters {
   std::uint64_t delayed_sightings = 0;
   std::uint64_t rejected_delayed_updates = 0;
   std::uint64_t dropped_sightings = 0;
+  /// Landmarks mapped from the lost scans that the associator's rules had removed by the fix
+  /// (DataAssociation::landmarkFromLostScans).
+  std::uint64_t lost_map_removed = 0;
 };
 
 }  // namespace ekf_slam

@@ -301,6 +301,32 @@ void DJNN::landmarkLoaded(LandmarkId id, std::uint32_t times_observed) {
   paper_.setEvidence(id, static_cast<double>(std::min<long>(t, kMaxEvidence)));
 }
 
+bool DJNN::landmarkFromLostScans(LandmarkId id, const Eigen::Matrix2d& cov,
+                                 const std::vector<LostLook>& looks) {
+  // The paper's evidence (eq. 9) over the lost scans, as tracking would have counted it had the
+  // pose been known: a feature from its first sighting, admitted at admit_evidence, dropped or
+  // removed at remove_evidence (then started again by its next sighting); misses count inside
+  // the penalty region. Kept when it ends admitted, with that evidence.
+  const EvidenceModel& model = paper_.evidenceModel();
+  const double eps = 1e-9;
+  bool alive = false, admitted = false;
+  double t = 0.0;
+  for (const LostLook& l : looks) {
+    if (l.seen) {
+      const double r = model.step(true, cov);
+      t = alive ? model.bump(t, r) : r;
+      alive = true;
+      admitted = admitted || t >= p_.paper.admit_evidence - eps;
+    } else if (alive && paper_.inPenaltyRegion(l.in_sensor)) {
+      t = model.bump(t, model.step(false, cov));
+      if (t <= p_.paper.remove_evidence + eps) alive = admitted = false;
+    }
+  }
+  if (!(alive && admitted)) return false;
+  paper_.setEvidence(id, t);
+  return true;
+}
+
 std::vector<TentativeFeature> DJNN::tentativeFeatures() const {
   std::vector<TentativeFeature> out;
   const TentativeSet& set = paper_.tentatives();

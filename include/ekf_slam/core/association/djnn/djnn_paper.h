@@ -212,6 +212,7 @@ class DjnnPaper {
   void forget(LandmarkId id) { evidence_.erase(id); }
   /// T in whole units (initial_evidence for a landmark not seen yet).
   int evidence(LandmarkId id) const;
+  const EvidenceModel& evidenceModel() const { return model_; }
   TentativeSet& tentatives() { return tentatives_; }
   const TentativeSet& tentatives() const { return tentatives_; }
   /// A new tentative feature from sighting z (noise C; `detectable` as in EvidenceModel::step).

@@ -407,6 +407,21 @@ void DjnnPaper::dropFeature(int slot, bool stale, FeatureRules* rules) {
   tentatives_.remove(slot);
 }
 
+Eigen::Matrix2d DjnnPaper::sightingGate(const AssociationContext& ctx, int obs,
+                                        const Eigen::Vector3d& pose, const Eigen::Matrix3d& P_vv,
+                                        const FeatureRules& rules, Sighting* s, double* lever_var) {
+  const Observation& o = ctx.observations()[obs];
+  Matrix23d G_pose;
+  Eigen::Matrix2d G_obs;
+  s->pos = ctx.model().inverse(pose, o.z, o.kind, &G_pose, &G_obs);
+  s->cov_obs = G_obs * o.R * G_obs.transpose();
+  s->heading_lever = G_pose.col(2);
+  // Gate on position: observation noise of both sightings plus the current pose covariance once
+  // (an upper bound on the pose error accumulated between the sightings; using it twice would
+  // double-count the correlated part).
+  return rules.gateCovariance(s->cov_obs, G_pose, P_vv, lever_var);
+}
+
 double DjnnPaper::tentativeDistance2(const Eigen::Vector2d& pos, const Eigen::Vector2d& lever,
                                      const Eigen::Matrix2d& C, double lever_var,
                                      const Tentative& t) {
@@ -447,17 +462,9 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
       continue;
     }
     seen[i].eligible = true;
-    Matrix23d G_pose;
-    Eigen::Matrix2d G_obs;
-    seen[i].pos = ctx.model().inverse(pose, o.z, o.kind, &G_pose, &G_obs);
-    seen[i].cov_obs = G_obs * o.R * G_obs.transpose();
-    seen[i].heading_lever = G_pose.col(2);
     seen[i].detectable = rules->detectable(ctx, RangeBearingModel::range(o.z, o.kind));
-    // Gate on position: observation noise of both sightings plus the current pose covariance once
-    // (an upper bound on the pose error accumulated between the sightings; using it twice would
-    // double-count the correlated part).
     double lever_var = 0.0;
-    const Eigen::Matrix2d C = rules->gateCovariance(seen[i].cov_obs, G_pose, P_vv, &lever_var);
+    const Eigen::Matrix2d C = sightingGate(ctx, i, pose, P_vv, *rules, &seen[i], &lever_var);
     for (int k = 0; k < static_cast<int>(tent_near_.size()); ++k) {
       const double d2 = tentativeDistance2(seen[i].pos, seen[i].heading_lever, C, lever_var,
                                            tentatives_[tent_near_[k]]);

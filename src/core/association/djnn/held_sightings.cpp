@@ -26,21 +26,16 @@ void HeldSightings::join(const AssociationContext& ctx, const LocalScan& scan, F
   const int m = static_cast<int>(ctx.numObservations());
   for (int i = 0; i < m; ++i) {
     if (result->decision[i] != Decision::kPaired) continue;
-    const Observation& o = ctx.observations()[i];
-    Matrix23d G_pose;
-    Eigen::Matrix2d G_obs;
-    const Eigen::Vector2d pos = ctx.model().inverse(pose, o.z, o.kind, &G_pose, &G_obs);
-    // The gate of the paper's tentative step: the sighting against the feature, the pose
-    // covariance once.
+    // The gate of the paper's tentative step.
+    Sighting s{};
     double lever_var = 0.0;
-    const Eigen::Matrix2d C =
-        rules->gateCovariance(G_obs * o.R * G_obs.transpose(), G_pose, P_vv, &lever_var);
+    const Eigen::Matrix2d C = DjnnPaper::sightingGate(ctx, i, pose, P_vv, *rules, &s, &lever_var);
     int best = -1;
     double best_d2 = std::numeric_limits<double>::infinity();
     for (int slot : near) {
       const Tentative& t = set[slot];
       if (!t.alive || !t.held_birth || t.last_seen >= scan.stamp) continue;
-      const double d2 = DjnnPaper::tentativeDistance2(pos, G_pose.col(2), C, lever_var, t);
+      const double d2 = DjnnPaper::tentativeDistance2(s.pos, s.heading_lever, C, lever_var, t);
       if (d2 <= paper->tentativeGate() && d2 < best_d2) {
         best = slot;
         best_d2 = d2;

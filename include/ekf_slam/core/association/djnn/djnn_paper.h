@@ -177,6 +177,12 @@ class DjnnPaper {
   }
   /// A point (map frame) in the frame of the scan's sensor.
   static Eigen::Vector2d inSensorFrame(const LocalScan& scan, const Eigen::Vector2d& p);
+  /// Observation `obs` as a sighting from `pose` (s->pos, cov_obs, heading_lever) and the
+  /// covariance it is gated with against a tentative feature (FeatureRules::gateCovariance, with
+  /// its `lever_var`).
+  static Eigen::Matrix2d sightingGate(const AssociationContext& ctx, int obs,
+                                      const Eigen::Vector3d& pose, const Eigen::Matrix3d& P_vv,
+                                      const FeatureRules& rules, Sighting* s, double* lever_var);
   /// The tentative gate's statistic d^2 of a sighting at `pos` with heading lever `lever` and
   /// gate covariance `C` (FeatureRules::gateCovariance, with its `lever_var`) against feature t.
   static double tentativeDistance2(const Eigen::Vector2d& pos, const Eigen::Vector2d& lever,

@@ -155,6 +155,23 @@ TEST(MapLostScans, TheLooksListEveryLostScanOldestFirst) {
   }
 }
 
+// The lost path (ScanReport::lost_path) takes each lost scan's pose from the mapping: carried back
+// from the fix and updated with that scan's pairings, newest first, one per scan carried back to.
+TEST(MapLostScans, ThePosesAreTheLostScansNewestFirstNearTheTruth) {
+  const LostDrive drive(3, true);
+  EkfSlam ekf = drive.fixedFilter();
+  const LostScanMapping m = mapLostScans(ekf, kModel, drive.lost, drive.dead_reckoned_now, {});
+  ASSERT_EQ(m.poses.size(), 5u);
+  Eigen::Vector3d truth = drive.start;
+  for (int k = 0; k < 5; ++k) {
+    truth = forward(truth, 1.0).pose;
+    const auto& [scan, pose] = m.poses[4 - k];
+    EXPECT_EQ(scan, static_cast<std::uint32_t>(k));
+    EXPECT_LT((pose.head<2>() - truth.head<2>()).norm(), 0.2) << k;
+    EXPECT_LT(std::abs(wrapAngle(pose.z() - truth.z())), 0.02) << k;
+  }
+}
+
 TEST(MapLostScans, ACallersIndexOfAnyCellSizeMapsTheSameAndEndsInStep) {
   // The candidates come from a landmark index: the pipeline's (20 m cells here, so the query
   // visits cells, not every occupied one) or, without one, a local one. Far trees, beyond every

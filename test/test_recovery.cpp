@@ -366,14 +366,16 @@ ScanReport fixAtTheTruth(Drive& d) {
   return d.run(1);
 }
 
-// Re-derived pose k is that of scans[k + skip], within 5 cm and 1 mrad of truths[k + skip].
+// Re-derived pose k is that of scans[k + skip], within 15 cm and 20 mrad of truths[k + skip]: the
+// odometry here is exact, and the lost scans' poses are the mapping's estimates, which carry the
+// noise of their pairings (with a real odometry's drift they are the better ones).
 void expectWhereTheVehicleWas(const std::vector<LostPathPose>& path,
                               const std::vector<std::uint32_t>& scans,
                               const std::vector<Eigen::Vector3d>& truths, std::size_t skip) {
   for (std::size_t k = 0; k < path.size(); ++k) {
     EXPECT_EQ(path[k].scan, scans[k + skip]);
-    EXPECT_LT((path[k].pose.head<2>() - truths[k + skip].head<2>()).norm(), 0.05) << k;
-    EXPECT_LT(std::abs(wrapAngle(path[k].pose.z() - truths[k + skip].z())), 1e-3) << k;
+    EXPECT_LT((path[k].pose.head<2>() - truths[k + skip].head<2>()).norm(), 0.15) << k;
+    EXPECT_LT(std::abs(wrapAngle(path[k].pose.z() - truths[k + skip].z())), 2e-2) << k;
   }
 }
 

@@ -186,6 +186,7 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
       pairings.push_back(Pairing{id, o.z, o.R, o.kind});
     }
     if (!pairings.empty() && !ekf.update(pairings, model)) pairings.clear();
+    out.poses.emplace_back(s->scan, ekf.pose());
     for (const Pairing& p : pairings) {
       const auto c = std::find(created.begin(), created.end(), p.id);
       if (c == created.end()) {

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <utility>
 #include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/common/pose2d.h"
 #include "ekf_slam/core/common/stopwatch.h"
 
 #include "ekf_slam/core/feature_extraction/scan_geometry.h"
@@ -467,6 +468,7 @@ void SlamPipeline::mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d
     }
   }
   filter_.restart();
+  estimatedLostPath(m, report);
   for (const LandmarkId id : m.paired) book_.paired(id, std::nan(""));
   for (std::size_t j = 0; j < m.created.size(); ++j) {
     if (!kept[j]) continue;
@@ -476,6 +478,26 @@ void SlamPipeline::mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d
   index_.sync(ekf);
   report->lost_map_landmarks = n_kept;
   report->lost_map_pairings = static_cast<int>(m.paired.size());
+}
+
+void SlamPipeline::estimatedLostPath(const LostScanMapping& m, ScanReport* report) const {
+  // The lost path so far is the fix carried back by the odometry alone. Each scan the mapping
+  // carried the state back to has a better estimate (its pairings with the map); the scans in
+  // between (no observations) move with the next newer one.
+  if (m.poses.empty()) return;
+  auto e = m.poses.begin();  // newest first
+  bool have = false;
+  Eigen::Vector3d correction = Eigen::Vector3d::Zero();  // estimate o carried^-1
+  for (auto p = report->lost_path.rbegin(); p != report->lost_path.rend(); ++p) {
+    while (e != m.poses.end() && e->first > p->scan) ++e;
+    if (e != m.poses.end() && e->first == p->scan) {
+      correction = composePose(e->second, inversePose(p->pose));
+      have = true;
+    }
+    if (!have) continue;
+    p->pose = composePose(correction, p->pose);
+    p->pose.z() = wrapAngle(p->pose.z());
+  }
 }
 
 // --- state ---------------------------------------------------------------------------------------

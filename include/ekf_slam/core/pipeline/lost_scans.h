@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -72,8 +73,10 @@ struct LostScanMapping {
   std::vector<std::vector<LostLook>> looks;
   std::vector<double> descriptors;  // NaN when unknown
   std::vector<LandmarkId> paired;   // landmarks of the map before, once per pairing
-  int scans = 0;                    // scans carried back to
-  int dropped = 0;                  // new landmarks seen too few times, removed again
+  /// Per scan carried back to, newest first: the vehicle's pose there after its update.
+  std::vector<std::pair<std::uint32_t, Eigen::Vector3d>> poses;
+  int scans = 0;    // scans carried back to
+  int dropped = 0;  // new landmarks seen too few times, removed again
 };
 
 /// Maps `lost` into `ekf`, whose pose is the fixed one at the scan after the newest lost scan

@@ -200,6 +200,8 @@ class SlamPipeline {
   /// After a fix: maps what the scans processed lost saw (lost_map_scans; LostScans).
   void mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d& dead_reckoned,
                         ScanReport* report);
+  /// The lost path's poses replaced by those the mapping of the lost scans estimated.
+  void estimatedLostPath(const LostScanMapping& m, ScanReport* report) const;
 
   PipelineConfig config_;
   std::shared_ptr<DataAssociation> associator_;

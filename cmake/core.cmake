@@ -75,6 +75,7 @@ add_library(ekf_slam_core
   src/core/pipeline/map_updater.cpp
   src/core/pipeline/delayed_sightings.cpp
   src/core/pipeline/lost_monitor.cpp
+  src/core/pipeline/kidnap_onset.cpp
   src/core/pipeline/lost_scans.cpp
   src/core/pipeline/recovery.cpp
   src/core/pipeline/map_file.cpp

@@ -36,7 +36,7 @@ foreach(t test_chi2 test_parameters test_coverage_grid test_sensor_model
           test_nnjcbb test_hungarian test_shape_context test_reweighted_random_walks
           test_rrwsc_matcher test_rrwsc test_djnn test_djnn_detection test_djnn_admission
           test_djnn_tentative_pose test_djnn_joint test_djnn_remembered test_geometric_constraints test_fgcbb test_rrwsc_relocaliser
-          test_batch_smoother test_pose_clones test_track_split test_lost_scans
+          test_batch_smoother test_pose_clones test_track_split test_lost_scans test_kidnap_onset
           test_scan_occlusion)
   ekf_slam_test(${t} LIBS ekf_slam_core)
 endforeach()

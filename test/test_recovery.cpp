@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
 #include <memory>
 #include <random>
 #include <string>
@@ -29,7 +30,8 @@ class Drive {
  public:
   explicit Drive(bool relocaliser = true, const Eigen::Vector3d& start = {20, 30, 0.1},
                  std::shared_ptr<Relocaliser> custom = nullptr, int confirmations = 0,
-                 int held_fixes = 1, double confirm_probability = 0.0)
+                 int held_fixes = 1, double confirm_probability = 0.0,
+                 const std::function<void(PipelineConfig*)>& tune = {})
       : world_(reloc_test::randomMap(250, 120.0, 3.0, 21)), truth_(start) {
     config_.initial_pose = start;
     config_.initial_pose_sigma = Eigen::Vector3d(0.01, 0.01, 0.001);
@@ -41,6 +43,7 @@ class Drive {
     config_.relocalisation_held_fixes = held_fixes;
     config_.relocalisation_confirm_probability = confirm_probability;
     config_.twist.additive = Eigen::Vector3d(0.005, 0.005, 0.0005).asDiagonal();
+    if (tune) tune(&config_);
     djnn_ = std::make_shared<DJNN>();
     MapParameterSource djnn_params;
     djnn_params.set("sensor_range", "15");
@@ -77,6 +80,18 @@ class Drive {
   }
   double error() const { return (pipeline_->pose().head<2>() - truth_.head<2>()).norm(); }
   double headingError() const { return std::abs(wrapAngle(pipeline_->pose().z() - truth_.z())); }
+  /// Landmarks with no tree of the world within 1 m: mapped at a wrong pose.
+  int misplaced() const {
+    const EkfSlam& ekf = pipeline_->ekf();
+    int n = 0;
+    for (std::size_t k = 0; k < ekf.numLandmarks(); ++k) {
+      bool near = false;
+      for (const MapLandmark& l : world_.map)
+        near = near || (ekf.landmark(static_cast<int>(k)) - l.position).norm() < 1.0;
+      n += !near;
+    }
+    return n;
+  }
   /// Pairs of landmarks closer than 1 m: a landmark mapped twice.
   int duplicates() const {
     const EkfSlam& ekf = pipeline_->ekf();
@@ -446,6 +461,48 @@ TEST(Recovery, TheTrackedScansBeforeGoingLostAreReDerivedWhenTheFixContradictsTh
       EXPECT_EQ(fixed.lost_path[k].tracked, k < expected_tracked) << k;
     if (jump) {
       EXPECT_EQ(expected_tracked, 3u);  // the jump is seen by no rule in three scans
+    }
+  }
+}
+
+// A kidnap no rule sees (the rules off): the estimate jumps and the filter maps an island of trees
+// at the wrong pose for 40 scans, until a forced relocalisation fixes it. At the fix the onset is
+// found where the jump was (KidnapOnset), the map goes back to the state kept before it and every
+// scan since is mapped as a lost scan: no tree is left where none is, and tracking goes on right.
+// With lost_onset_scans 0 the island stays.
+TEST(Recovery, AKidnapFoundLateRollsTheMapBackToItsOnset) {
+  for (const int window : {100, 0}) {  // 100: a state kept every 10 scans
+    SCOPED_TRACE(window);
+    Drive d(true, {20, 30, 0.1}, nullptr, 0, 1, 0.0, [window](PipelineConfig* c) {
+      c->lost_unpaired_scans = 0;
+      c->lost_nis_scans = 0;
+      c->lost_rejected_scans = 0;
+      c->lost_onset_scans = window;
+    });
+    d.run(40);
+    ASSERT_EQ(d.misplaced(), 0);
+    const std::uint32_t jump_scan = d.run(1).scan + 1;
+    d.pipeline().injectPoseJump({8.0, -5.0, 1.5});  // the estimate, not the vehicle
+    for (int k = 0; k < 40; ++k) EXPECT_FALSE(d.run(1).lost);
+    ASSERT_GT(d.misplaced(), 5);  // the island
+    ASSERT_TRUE(d.pipeline().requestRelocalisation());
+    const ScanReport fixed = fixAtTheTruth(d);
+    ASSERT_TRUE(fixed.relocalised);
+    EXPECT_LT(d.error(), 0.3);
+    if (window > 0) {
+      EXPECT_EQ(d.pipeline().counters().onset_rollbacks, 1u);
+      EXPECT_NEAR(static_cast<double>(fixed.onset_scan), jump_scan, 1.0);
+      EXPECT_LE(fixed.onset_rolled_back_from, fixed.onset_scan);
+      EXPECT_EQ(d.misplaced(), 0);
+      // The scans since are re-derived, the jumped ones among them.
+      ASSERT_FALSE(fixed.lost_path.empty());
+      EXPECT_LE(fixed.lost_path.front().scan, jump_scan);
+      d.run(20);
+      EXPECT_LT(d.error(), 0.3);
+      EXPECT_FALSE(d.pipeline().lost());
+    } else {
+      EXPECT_EQ(d.pipeline().counters().onset_rollbacks, 0u);
+      EXPECT_GT(d.misplaced(), 5);  // (and the island misleads the filter after the fix)
     }
   }
 }

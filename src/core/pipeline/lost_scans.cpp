@@ -41,6 +41,17 @@ void LostScans::dropFrom(std::uint32_t scan) {
   }
 }
 
+void LostScans::dropBefore(std::uint32_t scan) {
+  while (!scans_.empty() && scans_.front().scan < scan) scans_.pop_front();
+}
+
+LostScans LostScans::from(std::uint32_t scan) const {
+  LostScans out;
+  for (const Scan& s : scans_)
+    if (s.scan >= scan) out.scans_.push_back(s);
+  return out;
+}
+
 void LostScans::reanchor(const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
   const Eigen::Vector3d t = composePose(to, inversePose(from));
   for (Scan& s : scans_) {

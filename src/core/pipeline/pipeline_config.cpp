@@ -282,6 +282,9 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
       r.integer("relocalisation_window_scans", c.relocalisation_window_scans, 1, 100);
   c.lost_map_scans = r.flag("lost_map_scans", c.lost_map_scans);
   c.lost_rollback = r.flag("lost_rollback", c.lost_rollback);
+  c.lost_onset_scans = r.integer("lost_onset_scans", c.lost_onset_scans, 0, 1000);
+  c.lost_onset_snapshots = r.integer("lost_onset_snapshots", c.lost_onset_snapshots, 1, 1000);
+  c.lost_onset_min_score = r.positive("lost_onset_min_score", c.lost_onset_min_score);
   c.lost_map_pair_probability =
       r.probability("lost_map_pair_probability", c.lost_map_pair_probability);
   c.lost_map_new_probability =

@@ -54,6 +54,7 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
       monitor_(config_, filter_.ekf(), index_, model_, book_),
       recovery_(config_, filter_, motion_, model_, book_, counters_) {
   if (!associator_) throw std::invalid_argument("SlamPipeline: no associator given");
+  history_.configure(config_.lost_onset_scans, config_.lost_onset_snapshots);
   EkfSlam& ekf = filter_.ekf();
   ekf.setLinearisation(config_.firstEstimateJacobians() ? Linearisation::kFirstEstimate
                                                         : Linearisation::kStandard);
@@ -78,6 +79,7 @@ void SlamPipeline::reset() {
   recovery_.reset();
   monitor_.reset();
   checkpoint_.drop();
+  history_.clear();
   ++counters_.resets;
 }
 
@@ -163,6 +165,7 @@ void SlamPipeline::applyPendingMotion() const {
   const MotionStep& step = motion_.step();
   recovery_.carry(step);
   if (checkpoint_.held) checkpoint_.scans.carry(step);
+  if (history_.active()) history_.carry(step);
   motion_.applied();  // reads the filter's pose before the step
   filter_.predict(step);
 }
@@ -183,20 +186,26 @@ ScanReport SlamPipeline::associateAndUpdate(double stamp, std::vector<Observatio
     // The map is frozen: no association (the associator's state stays as it was), no landmark
     // added or removed, only the relocaliser.
     relocaliseLost(&report);
+    recordScan(report, report.relocalised);
     return report;
   }
   mapper_.associate(*associator_, stamp, &report, occlusion);
   // A kidnap found by rule 3: the associator's decisions are not applied, the relocaliser's are.
   if (recovery_.active() && kidnapRefused(&report)) {
     recovery_.rememberPose(report);
+    recordScan(report, report.relocalised);
     return report;
   }
   book_.countScan(static_cast<int>(report.observations.size()) >= config_.lost_min_observations);
   if (recovery_.active()) updateCheckpoint(report);
+  if (recovery_.active() && history_.wantsSnapshot(report.scan) && !mapFrozen() &&
+      !filter_.compressed())
+    history_.addSnapshot(snapshot(report.scan));
   mapper_.apply(*associator_, {}, &report);
   if (checkpoint_.held) checkpoint_.scans.add(report.scan, motion_.odometry(), report.observations);
   if (recovery_.active()) checkLost(&report);
   recovery_.rememberPose(report);  // went lost at this scan: its pose is carried back at the fix
+  recordScan(report, !report.lost || report.relocalised);
   return report;
 }
 
@@ -303,6 +312,7 @@ void SlamPipeline::goLost(ScanReport* report) {
   if (checkpoint_.held) {
     rollBack(report);
     rolled_back = std::move(checkpoint_.scans);
+    history_.forgetSnapshotsFrom(checkpoint_.scan);
   }
   checkpoint_.drop();
   discardRecent(report);
@@ -333,41 +343,54 @@ void SlamPipeline::updateCheckpoint(const ScanReport& report) {
     if (well || now - checkpoint_.origin > config_.lost_recent_scans) checkpoint_.drop();
   }
   if (checkpoint_.held || !suspect) return;
-  const EkfSlam& ekf = filter_.ekf();
-  const Eigen::Index n = ekf.mapEnd();
-  checkpoint_.mean = ekf.mean().head(n);
-  checkpoint_.covariance = ekf.storedCovariance().topLeftCorner(n, n);
-  checkpoint_.ids = ekf.landmarkIds();
-  checkpoint_.book = book_.entries();
-  for (const LandmarkId id : ekf.landmarkIds())
-    checkpoint_.evidence[id] = associator_->evidence(id);
-  checkpoint_.held = true;
-  checkpoint_.scan = report.scan;
+  checkpoint_ = snapshot(report.scan);
   checkpoint_.origin = now;
   checkpoint_.established = established;
   checkpoint_.observations = static_cast<int>(report.observations.size());
 }
 
+MapCheckpoint SlamPipeline::snapshot(std::uint32_t scan) const {
+  MapCheckpoint c;
+  const EkfSlam& ekf = filter_.ekf();
+  const Eigen::Index n = ekf.mapEnd();
+  c.mean = ekf.mean().head(n);
+  c.covariance = ekf.storedCovariance().topLeftCorner(n, n);
+  c.ids = ekf.landmarkIds();
+  c.book = book_.entries();
+  for (const LandmarkId id : ekf.landmarkIds()) c.evidence[id] = associator_->evidence(id);
+  c.held = true;
+  c.scan = scan;
+  return c;
+}
+
 void SlamPipeline::rollBack(ScanReport* report) {
+  const Eigen::Vector3d pose = filter_.ekf().pose();
+  if (!restore(checkpoint_, report)) return;
+  // The scans since, placed by their odometry back from the current estimate.
+  checkpoint_.scans.reanchor(motion_.odometry(), pose);
+  report->rolled_back_scans = static_cast<int>(report->scan - checkpoint_.scan + 1);
+}
+
+bool SlamPipeline::restore(const MapCheckpoint& checkpoint, ScanReport* report) {
   delayed_.clear();  // its clones leave the state (their poses are in doubt as well)
   EkfSlam& ekf = filter_.ekf();
   const Eigen::Vector3d pose = ekf.pose();
   const std::vector<LandmarkId> before = ekf.landmarkIds();
-  if (checkpoint_.mean.size() != 3 + ekf.correctionDim() + 2 * Eigen::Index(checkpoint_.ids.size()))
-    return;
+  if (checkpoint.mean.size() != 3 + ekf.correctionDim() + 2 * Eigen::Index(checkpoint.ids.size()))
+    return false;
   // The correction states and the landmarks as they were (those made since go, those dropped
   // since come back); the pose keeps its estimate, uncorrelated with them: it was estimated with
   // what is undone, and a fix replaces it anyway.
-  Eigen::VectorXd mean = checkpoint_.mean;
+  Eigen::VectorXd mean = checkpoint.mean;
   mean.head<3>() = pose;
-  Eigen::MatrixXd P = checkpoint_.covariance.selfadjointView<Eigen::Lower>();
+  Eigen::MatrixXd P = checkpoint.covariance.selfadjointView<Eigen::Lower>();
   const Eigen::Index n = P.rows();
   P.topLeftCorner<3, 3>() = ekf.poseCovariance();
   P.topRightCorner(3, n - 3).setZero();
   P.bottomLeftCorner(n - 3, 3).setZero();
   // setState numbers new landmarks after its largest id: ids made since must not come again.
   const LandmarkId next = ekf.insertLandmark(Eigen::Vector2d::Zero(), Eigen::Matrix2d::Identity());
-  ekf.setState(mean, P, checkpoint_.ids);
+  ekf.setState(mean, P, checkpoint.ids);
   ekf.insertLandmark(Eigen::Vector2d::Zero(), Eigen::Matrix2d::Identity(), next);
   ekf.removeLandmark(next);
   filter_.restart();
@@ -381,18 +404,16 @@ void SlamPipeline::rollBack(ScanReport* report) {
   // The checkpoint's bookkeeping; dropped since (missed from the wrong pose): back, with the
   // associator's evidence as it was.
   for (const LandmarkId id : ekf.landmarkIds()) {
-    const auto info = checkpoint_.book.find(id);
-    if (info != checkpoint_.book.end()) book_.loaded(id, info->second);
-    const auto e = checkpoint_.evidence.find(id);
-    const int evidence = e == checkpoint_.evidence.end() ? 0 : e->second;
+    const auto info = checkpoint.book.find(id);
+    if (info != checkpoint.book.end()) book_.loaded(id, info->second);
+    const auto e = checkpoint.evidence.find(id);
+    const int evidence = e == checkpoint.evidence.end() ? 0 : e->second;
     if (std::find(before.begin(), before.end(), id) == before.end() ||
         associator_->evidence(id) < evidence)
       associator_->landmarkLoaded(id, static_cast<std::uint32_t>(std::max(evidence, 0)));
   }
   index_.sync(ekf);
-  // The scans since, placed by their odometry back from the current estimate.
-  checkpoint_.scans.reanchor(motion_.odometry(), pose);
-  report->rolled_back_scans = static_cast<int>(report->scan - checkpoint_.scan + 1);
+  return true;
 }
 
 void SlamPipeline::enterLost(bool pose_unknown) {
@@ -411,7 +432,111 @@ void SlamPipeline::discardRecent(ScanReport* report) {
   mapper_.discard(ids, report);
 }
 
+void SlamPipeline::recordScan(const ScanReport& report, bool tracked) {
+  if (!history_.active() || !recovery_.active()) return;
+  TrackedHistory::Record r;
+  r.scan = report.scan;
+  r.stamp = report.stamp;
+  r.odometry = motion_.odometry();
+  r.estimate = motion_.pose();
+  r.covariance = motion_.poseCovariance();
+  r.tracked = tracked;
+  history_.add(r, report.observations);
+}
+
+bool SlamPipeline::rollBackToOnset(const RelocalisationResult& fix, ScanReport* report) {
+  if (!history_.active() || mapFrozen() || filter_.compressed()) return false;
+  // The scans already undone (a lost event's rollback) or processed lost: the onset is looked
+  // for before them.
+  const std::uint32_t undone = std::min(recovery_.firstLostScan(report->scan), report->scan);
+  const EkfSlam& ekf = filter_.ekf();
+  const Eigen::Vector3d odometry_now = motion_.odometry();
+  const Eigen::Vector3d estimate_now = motion_.pose();
+  // Each kept tracked scan under both hypotheses: the fix carried back by the odometry (with the
+  // chain's noise, as Recovery::rederiveTracked), and the filter's pose then.
+  const std::deque<TrackedHistory::Record>& records = history_.records();
+  const auto& kept = history_.scans().scans();
+  std::vector<OnsetScan> scans;
+  Eigen::Matrix3d Q = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d Phi = Eigen::Matrix3d::Identity();
+  auto r = records.rbegin();
+  for (auto s = kept.rbegin(); s != kept.rend(); ++s) {
+    Q += Phi * s->Q * Phi.transpose();
+    Phi = Phi * s->F;
+    if (s->scan >= undone) continue;
+    while (r != records.rend() && r->scan > s->scan) ++r;
+    if (r == records.rend() || r->scan != s->scan || !r->tracked) continue;
+    const Eigen::Vector3d v = composePose(inversePose(odometry_now), s->pose);
+    OnsetScan o;
+    o.scan = s->scan;
+    o.estimate = r->estimate;
+    o.estimate_covariance = r->covariance;
+    o.carried = composePose(fix.pose, v);
+    o.carried.z() = wrapAngle(o.carried.z());
+    o.carried_covariance = carriedCovariance(fix.pose, fix.covariance, v, estimate_now.z(), Q);
+    o.observations = &s->observations;
+    scans.push_back(o);
+  }
+  std::reverse(scans.begin(), scans.end());
+  std::vector<OnsetLandmark> landmarks;
+  landmarks.reserve(ekf.numLandmarks());
+  for (int k = 0; k < static_cast<int>(ekf.numLandmarks()); ++k) {
+    OnsetLandmark l;
+    l.position = ekf.landmark(k);
+    l.covariance = ekf.landmarkCovariance(k);
+    l.created_scan = book_.info(ekf.landmarkIds()[k]).created_scan;
+    landmarks.push_back(l);
+  }
+  OnsetParams params;
+  params.pair_probability = config_.lost_map_pair_probability;
+  params.max_range = config_.max_observation_range;
+  params.field_of_view = config_.lost_field_of_view;
+  params.min_score = config_.lost_onset_min_score;
+  const KidnapOnset onset = estimateKidnapOnset(scans, landmarks, model_, params);
+  if (!onset.found) return false;
+  const MapCheckpoint* c = history_.snapshotAtOrBefore(onset.scan);
+  // Worth it only when it undoes more scans tracked at a wrong pose than it re-maps right ones
+  // (those between the kept state and the onset, carried back by the odometry).
+  if (c == nullptr || onset.scan - c->scan >= undone - onset.scan) return false;
+  const std::uint32_t from = c->scan;
+  if (!restore(*c, report)) return false;
+  // Every scan since is a lost scan now, placed by its odometry back from the estimate.
+  LostScans lost = history_.scans().from(from);
+  lost.reanchor(odometry_now, estimate_now);
+  recovery_.keepLostScans(std::move(lost));
+  history_.forgetSnapshotsFrom(from);
+  ++counters_.onset_rollbacks;
+  report->onset_scan = onset.scan;
+  report->onset_rolled_back_from = from;
+  report->rolled_back_scans = static_cast<int>(report->scan - from);
+  report->lost_reason += (report->lost_reason.empty() ? "" : "; ") +
+                         std::string("the kidnap began about scan ") + std::to_string(onset.scan) +
+                         ": map rolled back to scan " + std::to_string(from);
+  return true;
+}
+
+void SlamPipeline::addOnsetPath(std::uint32_t from, const Eigen::Vector3d& odometry_at_fix,
+                                ScanReport* report) {
+  // The tracked scans since the onset's state, up to those the fix re-derived already: carried
+  // back from the fixed pose by their odometry.
+  const std::uint32_t until =
+      report->lost_path.empty() ? report->scan : report->lost_path.front().scan;
+  const Eigen::Vector3d to_fixed = composePose(motion_.pose(), inversePose(odometry_at_fix));
+  std::vector<LostPathPose> path;
+  for (const TrackedHistory::Record& r : history_.records()) {
+    if (r.scan < from || r.scan >= until) continue;
+    Eigen::Vector3d p = composePose(to_fixed, r.odometry);
+    p.z() = wrapAngle(p.z());
+    path.push_back({r.scan, r.stamp, p, /*tracked=*/true});
+  }
+  counters_.rederived_tracked_poses += path.size();
+  report->lost_path.insert(report->lost_path.begin(), path.begin(), path.end());
+}
+
 void SlamPipeline::applyFix(const RelocalisationResult& fix, ScanReport* report) {
+  const Eigen::Vector3d odometry_at_fix = motion_.odometry();
+  const bool onset = rollBackToOnset(fix, report);
+  const std::uint32_t onset_from = onset ? report->onset_rolled_back_from : report->scan;
   AssociationResult& a = report->association;
   a.resize(report->observations.size());
   EkfSlam& ekf = filter_.ekf();
@@ -423,8 +548,11 @@ void SlamPipeline::applyFix(const RelocalisationResult& fix, ScanReport* report)
   filter_.flush();
   const Eigen::Vector3d dead_reckoned = pose();
   ekf.replacePose(fix.pose, kRelocalisedPriorInflation * fix.covariance);
-  // A window's older pairings join the update.
-  const std::vector<Pairing> window = recovery_.takeWindowPairings();
+  // A window's older pairings join the update (those of landmarks still mapped).
+  std::vector<Pairing> window = recovery_.takeWindowPairings();
+  window.erase(std::remove_if(window.begin(), window.end(),
+                              [&ekf](const Pairing& p) { return !ekf.contains(p.id); }),
+               window.end());
   mapper_.apply(*associator_, window, report);
   if (!report->update_ok) {
     filter_.flush();
@@ -436,6 +564,7 @@ void SlamPipeline::applyFix(const RelocalisationResult& fix, ScanReport* report)
   report->fix_correction.z() = wrapAngle(report->fix_correction.z());
   const LostScans lost = recovery_.takeLostScans();
   recovery_.fixed(dead_reckoned, report);
+  if (onset) addOnsetPath(onset_from, odometry_at_fix, report);
   if (report->update_ok) mapSeenWhileLost(lost, dead_reckoned, report);
   monitor_.resume();
 }

@@ -46,6 +46,11 @@ void EkfSlamNode::reportRecovery(const ScanReport& report) {
         report.scan, report.lost_scans, lost_since_scan_, d.head<2>().norm(), d.z(),
         report.fix_pairings, report.relocalisation.hypothesis_size, p.x(), p.y(), p.z(),
         report.lost_map_landmarks, report.lost_map_pairings);
+    if (report.onset_scan > 0)
+      ROS_INFO(
+          "ekf_slam: the kidnap began about scan %u, before any rule saw it: the map went back to "
+          "scan %u and every scan since was mapped again from the fix",
+          report.onset_scan, report.onset_rolled_back_from);
   }
   if (report.lost_timeout) {
     ROS_WARN("ekf_slam: no relocalisation at scan %u (lost since scan %u): %s", report.scan,

@@ -379,7 +379,8 @@ OfflineSummary writeOfflineReport(const OfflineOptions& o, const BagContents& ba
                    {"delayed_sightings", k.delayed_sightings},
                    {"rejected_delayed_updates", k.rejected_delayed_updates},
                    {"dropped_sightings", k.dropped_sightings},
-                   {"lost_map_removed", k.lost_map_removed}};
+                   {"lost_map_removed", k.lost_map_removed},
+                   {"onset_rollbacks", k.onset_rollbacks}};
   j["relocaliser"] = loop.relocaliser;
   j["lost_at_end"] = pipeline.lost();
   j["relocalisation_us_median"] = number(quantile(record.relocalisation_us, 0.5));
@@ -413,6 +414,10 @@ OfflineSummary writeOfflineReport(const OfflineOptions& o, const BagContents& ba
                       {"correction_m", number(e.correction.head<2>().norm())},
                       {"correction_rad", number(e.correction.z())},
                       {"pairings", e.pairings}});
+      if (e.onset_scan >= 0) {
+        lost.back()["onset_scan"] = e.onset_scan;
+        lost.back()["rolled_back_to"] = e.rolled_back_to;
+      }
     }
     j["lost_event_list"] = lost;
   }

@@ -64,6 +64,10 @@ void RunRecord::add(const ScanReport& r, const SlamPipeline& pipeline,
     e.scans_lost = r.relocalised ? r.lost_scans : r.scan - e.scan;
     e.correction = r.fix_correction;
     e.pairings = r.fix_pairings;
+    if (r.onset_rolled_back_from > 0 || r.onset_scan > 0) {
+      e.onset_scan = r.onset_scan;
+      e.rolled_back_to = r.onset_rolled_back_from;
+    }
   }
   if (r.lost && !pipeline.lost() && !r.relocalised)
     log_ << "scan " << r.scan << ": " << r.lost_reason << "\n";
@@ -75,7 +79,11 @@ void RunRecord::add(const ScanReport& r, const SlamPipeline& pipeline,
            << x.hypothesis_size << " pairings; correction " << r.fix_correction.head<2>().norm()
            << " m, " << r.fix_correction.z() << " rad, " << r.fix_pairings
            << " pairings in the update; from the lost scans " << r.lost_map_landmarks
-           << " landmarks mapped, " << r.lost_map_pairings << " pairings\n";
+           << " landmarks mapped, " << r.lost_map_pairings << " pairings";
+      if (r.onset_scan > 0)
+        log_ << "; the kidnap began about scan " << r.onset_scan << ": map rolled back to scan "
+             << r.onset_rolled_back_from;
+      log_ << "\n";
       relocalisations.push_back({r.scan, r.stamp, x.pose, x.hypothesis_size, x.joint_mahalanobis,
                                  x.nodes, 1e6 * r.relocalisation_s});
     }

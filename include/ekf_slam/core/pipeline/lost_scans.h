@@ -48,6 +48,10 @@ class LostScans {
   void carry(const MotionStep& step);
   /// Forgets the scans from `scan` on (those a fix already used), their odometry kept.
   void dropFrom(std::uint32_t scan);
+  /// Forgets the scans before `scan` (the odometry from the newer ones on is all kept).
+  void dropBefore(std::uint32_t scan);
+  /// A copy of the scans from `scan` on.
+  LostScans from(std::uint32_t scan) const;
   /// Moves every pose by the motion that takes `from` to `to` (scans kept at odometry poses,
   /// then placed at the estimate).
   void reanchor(const Eigen::Vector3d& from, const Eigen::Vector3d& to);

@@ -161,6 +161,17 @@ struct PipelineConfig {
   /// lost scans (docs/relocalisation.md, "Rolling back to before the kidnap"). false: the scans
   /// tracked before the lost event keep what they did to the map.
   bool lost_rollback = true;
+  /// At a fix, the kidnap's onset is looked for among the last this many scans (KidnapOnset):
+  /// from it on the scans are explained better at the fix carried back by their odometry than at
+  /// the filter's poses. When it comes before the scans already undone (lost_rollback), the map
+  /// goes back to the filter's state kept at or before it and the scans since are mapped as lost
+  /// scans (docs/relocalisation.md, "A kidnap found late"). 0: off. At most 1000.
+  int lost_onset_scans = 600;
+  /// ... the filter's state is kept this many times over that window (each a copy of the state:
+  /// memory and time grow with it and with the map's size squared).
+  int lost_onset_snapshots = 10;
+  /// ... and an onset counts when at least this many observations are better explained from it on.
+  double lost_onset_min_score = 10.0;
   double lost_nis_probability = 0.999;
 
   /// The filter: "ekf" (every step on the whole state) or "cekf", the compressed EKF

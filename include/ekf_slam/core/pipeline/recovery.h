@@ -6,6 +6,7 @@
 // and of the tracked ones before that the fix contradicts (ScanReport::lost_path).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -66,6 +67,13 @@ class Recovery {
     LostScans out = std::move(seen_while_lost_);
     seen_while_lost_.clear();
     return out;
+  }
+  /// The first scan undone or processed lost since going lost (`otherwise` when none).
+  std::uint32_t firstLostScan(std::uint32_t otherwise) const {
+    std::uint32_t first = otherwise;
+    if (!seen_while_lost_.empty()) first = std::min(first, seen_while_lost_.scans().front().scan);
+    if (!lost_path_.empty()) first = std::min(first, lost_path_.front().scan);
+    return first;
   }
   /// Just gone lost: tracked scans whose updates were undone (a rollback) join the lost scans.
   void keepLostScans(LostScans scans) { seen_while_lost_ = std::move(scans); }

@@ -108,6 +108,10 @@ struct ScanReport {
   /// Went lost with a checkpoint held (lost_rollback): the scans since it, this one included,
   /// whose updates were undone.
   int rolled_back_scans = 0;
+  /// At a fix (lost_onset_scans): the scan the kidnap began at, about, and the scan the map went
+  /// back to before it (its kept state); 0 when the onset rolled nothing back.
+  std::uint32_t onset_scan = 0;
+  std::uint32_t onset_rolled_back_from = 0;
   RelocalisationResult relocalisation;  ///< of the attempt
   double relocalisation_s = 0.0;        ///< wall time of the relocaliser call
   int landmarks_expected = 0;           ///< map landmarks in view (lost rule 1), when tracking
@@ -174,6 +178,9 @@ struct PipelineCounters {
   /// Landmarks mapped from the lost scans that the associator's rules had removed by the fix
   /// (DataAssociation::landmarkFromLostScans).
   std::uint64_t lost_map_removed = 0;
+  /// Fixes whose kidnap began before the scans undone already: the map went back to before it
+  /// (lost_onset_scans).
+  std::uint64_t onset_rollbacks = 0;
 };
 
 }  // namespace ekf_slam

@@ -32,6 +32,7 @@
 #include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/filter/odometry_correction.h"
 #include "ekf_slam/core/pipeline/delayed_sightings.h"
+#include "ekf_slam/core/pipeline/kidnap_onset.h"
 #include "ekf_slam/core/pipeline/landmark_book.h"
 #include "ekf_slam/core/pipeline/lost_monitor.h"
 #include "ekf_slam/core/pipeline/map_checkpoint.h"
@@ -194,6 +195,17 @@ class SlamPipeline {
   void updateCheckpoint(const ScanReport& report);
   /// Going lost with a checkpoint held: the map as it was, the scans since kept as lost scans.
   void rollBack(ScanReport* report);
+  /// The filter's map, bookkeeping and the associator's evidence before scan `scan`.
+  MapCheckpoint snapshot(std::uint32_t scan) const;
+  /// The map as `c` kept it; the pose keeps its estimate, uncorrelated with it.
+  bool restore(const MapCheckpoint& c, ScanReport* report);
+  /// Keeps a processed scan for lost_onset_scans (and, before a tracked scan's update, the state).
+  void recordScan(const ScanReport& report, bool tracked);
+  /// At a fix: when the kidnap began before the scans already undone (KidnapOnset), the map goes
+  /// back to before it and every scan since becomes a lost scan. True when it did.
+  bool rollBackToOnset(const RelocalisationResult& fix, ScanReport* report);
+  /// The trajectory of the scans tracked from `from` on that the fix did not re-derive already.
+  void addOnsetPath(std::uint32_t from, const Eigen::Vector3d& odometry_at_fix, ScanReport* report);
   /// Replaces the pose with a relocaliser's fix and updates with its pairings
   /// (docs/relocalisation.md); the scans processed while lost get their re-derived poses.
   void applyFix(const RelocalisationResult& fix, ScanReport* report);
@@ -221,6 +233,8 @@ class SlamPipeline {
   mutable Recovery recovery_;
   // mutable: the odometry since carries its scans along (applyPendingMotion).
   mutable MapCheckpoint checkpoint_;
+  // mutable: likewise (lost_onset_scans).
+  mutable TrackedHistory history_;
   std::uint32_t scans_ = 0;
 };
 

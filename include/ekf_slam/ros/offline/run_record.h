@@ -70,6 +70,10 @@ struct LostEvent {
   std::uint32_t scans_lost = 0;                          // processed lost until the end
   Eigen::Vector3d correction = Eigen::Vector3d::Zero();  // relocalised: fix minus estimate
   int pairings = 0;                                      // relocalised: paired in the fix
+  // Relocalised with the map rolled back to the kidnap's onset (lost_onset_scans): the onset
+  // and the scan whose kept state the map went back to; -1: none.
+  std::int64_t onset_scan = -1;
+  std::int64_t rolled_back_to = -1;
 };
 
 /// Stamps in full: epoch stamps (1.2e9 s) need 10 digits before the point and 9 after.

@@ -133,8 +133,9 @@ TEST(TrackedHistory, KeepsTheWindowAndAStateEverySpacingScans) {
   EXPECT_EQ(h.snapshotAtOrBefore(75)->scan, 70u);
   EXPECT_EQ(h.snapshotAtOrBefore(49), nullptr);
   // A rollback to before 100 undoes the states from it on.
-  h.forgetSnapshotsFrom(100);
+  h.forgetFrom(100);
   EXPECT_EQ(h.snapshotAtOrBefore(149)->scan, 90u);
+  for (const TrackedHistory::Record& r : h.records()) EXPECT_EQ(r.tracked, r.scan < 100) << r.scan;
   EXPECT_TRUE(h.wantsSnapshot(100));
   h.clear();
   EXPECT_TRUE(h.records().empty());

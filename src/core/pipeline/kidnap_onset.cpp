@@ -207,7 +207,8 @@ void TrackedHistory::addSnapshot(MapCheckpoint snapshot) {
   snapshots_.push_back(std::move(snapshot));
 }
 
-void TrackedHistory::forgetSnapshotsFrom(std::uint32_t scan) {
+void TrackedHistory::forgetFrom(std::uint32_t scan) {
+  for (Record& r : records_) r.tracked = r.tracked && r.scan < scan;
   while (!snapshots_.empty() && snapshots_.back().scan >= scan) snapshots_.pop_back();
   last_snapshot_ = snapshots_.empty() ? -1 : std::int64_t{snapshots_.back().scan};
 }

@@ -312,7 +312,7 @@ void SlamPipeline::goLost(ScanReport* report) {
   if (checkpoint_.held) {
     rollBack(report);
     rolled_back = std::move(checkpoint_.scans);
-    history_.forgetSnapshotsFrom(checkpoint_.scan);
+    history_.forgetFrom(checkpoint_.scan);
   }
   checkpoint_.drop();
   discardRecent(report);
@@ -504,7 +504,7 @@ bool SlamPipeline::rollBackToOnset(const RelocalisationResult& fix, ScanReport* 
   LostScans lost = history_.scans().from(from);
   lost.reanchor(odometry_now, estimate_now);
   recovery_.keepLostScans(std::move(lost));
-  history_.forgetSnapshotsFrom(from);
+  history_.forgetFrom(from);
   ++counters_.onset_rollbacks;
   report->onset_scan = onset.scan;
   report->onset_rolled_back_from = from;

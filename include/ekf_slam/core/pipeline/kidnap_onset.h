@@ -96,8 +96,9 @@ class TrackedHistory {
   /// Whether the filter's state before tracked scan `scan` should be kept.
   bool wantsSnapshot(std::uint32_t scan) const;
   void addSnapshot(MapCheckpoint snapshot);
-  /// The map was rolled back to before `scan`: the states kept from it on are of an undone past.
-  void forgetSnapshotsFrom(std::uint32_t scan);
+  /// The map was rolled back to before `scan`: the states kept from it on are of an undone past,
+  /// and the filter's poses from it on are no hypothesis any more (the scans were mapped lost).
+  void forgetFrom(std::uint32_t scan);
   /// The newest state kept at or before `scan`, or null.
   const MapCheckpoint* snapshotAtOrBefore(std::uint32_t scan) const;
 

@@ -10,6 +10,7 @@
 
 #include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/common/chi2.h"
+#include "ekf_slam/core/common/pose2d.h"
 
 namespace ekf_slam {
 
@@ -211,6 +212,48 @@ void TrackedHistory::forgetFrom(std::uint32_t scan) {
   for (Record& r : records_) r.tracked = r.tracked && r.scan < scan;
   while (!snapshots_.empty() && snapshots_.back().scan >= scan) snapshots_.pop_back();
   last_snapshot_ = snapshots_.empty() ? -1 : std::int64_t{snapshots_.back().scan};
+}
+
+std::vector<OnsetScan> TrackedHistory::hypotheses(const Eigen::Vector3d& fix,
+                                                  const Eigen::Matrix3d& fix_covariance,
+                                                  const Eigen::Vector3d& odometry_now,
+                                                  double estimate_yaw, std::uint32_t before) const {
+  std::vector<OnsetScan> out;
+  Eigen::Matrix3d Q = Eigen::Matrix3d::Zero();  // the odometry's noise from a scan to now
+  Eigen::Matrix3d Phi = Eigen::Matrix3d::Identity();
+  auto r = records_.rbegin();
+  const auto& kept = scans_.scans();
+  for (auto s = kept.rbegin(); s != kept.rend(); ++s) {  // newest first
+    Q += Phi * s->Q * Phi.transpose();
+    Phi = Phi * s->F;
+    if (s->scan >= before) continue;
+    while (r != records_.rend() && r->scan > s->scan) ++r;
+    if (r == records_.rend() || r->scan != s->scan || !r->tracked) continue;
+    const Eigen::Vector3d v = composePose(inversePose(odometry_now), s->pose);
+    OnsetScan o;
+    o.scan = s->scan;
+    o.estimate = r->estimate;
+    o.estimate_covariance = r->covariance;
+    o.carried = composePose(fix, v);
+    o.carried.z() = wrapAngle(o.carried.z());
+    o.carried_covariance = carriedCovariance(fix, fix_covariance, v, estimate_yaw, Q);
+    o.observations = &s->observations;
+    out.push_back(o);
+  }
+  std::reverse(out.begin(), out.end());
+  return out;
+}
+
+std::vector<LostPathPose> TrackedHistory::path(std::uint32_t from, std::uint32_t until,
+                                               const Eigen::Vector3d& to_fixed) const {
+  std::vector<LostPathPose> out;
+  for (const Record& r : records_) {
+    if (r.scan < from || r.scan >= until) continue;
+    Eigen::Vector3d p = composePose(to_fixed, r.odometry);
+    p.z() = wrapAngle(p.z());
+    out.push_back({r.scan, r.stamp, p, /*tracked=*/true});
+  }
+  return out;
 }
 
 const MapCheckpoint* TrackedHistory::snapshotAtOrBefore(std::uint32_t scan) const {

@@ -452,32 +452,8 @@ bool SlamPipeline::rollBackToOnset(const RelocalisationResult& fix, ScanReport* 
   const EkfSlam& ekf = filter_.ekf();
   const Eigen::Vector3d odometry_now = motion_.odometry();
   const Eigen::Vector3d estimate_now = motion_.pose();
-  // Each kept tracked scan under both hypotheses: the fix carried back by the odometry (with the
-  // chain's noise, as Recovery::rederiveTracked), and the filter's pose then.
-  const std::deque<TrackedHistory::Record>& records = history_.records();
-  const auto& kept = history_.scans().scans();
-  std::vector<OnsetScan> scans;
-  Eigen::Matrix3d Q = Eigen::Matrix3d::Zero();
-  Eigen::Matrix3d Phi = Eigen::Matrix3d::Identity();
-  auto r = records.rbegin();
-  for (auto s = kept.rbegin(); s != kept.rend(); ++s) {
-    Q += Phi * s->Q * Phi.transpose();
-    Phi = Phi * s->F;
-    if (s->scan >= undone) continue;
-    while (r != records.rend() && r->scan > s->scan) ++r;
-    if (r == records.rend() || r->scan != s->scan || !r->tracked) continue;
-    const Eigen::Vector3d v = composePose(inversePose(odometry_now), s->pose);
-    OnsetScan o;
-    o.scan = s->scan;
-    o.estimate = r->estimate;
-    o.estimate_covariance = r->covariance;
-    o.carried = composePose(fix.pose, v);
-    o.carried.z() = wrapAngle(o.carried.z());
-    o.carried_covariance = carriedCovariance(fix.pose, fix.covariance, v, estimate_now.z(), Q);
-    o.observations = &s->observations;
-    scans.push_back(o);
-  }
-  std::reverse(scans.begin(), scans.end());
+  const std::vector<OnsetScan> scans =
+      history_.hypotheses(fix.pose, fix.covariance, odometry_now, estimate_now.z(), undone);
   std::vector<OnsetLandmark> landmarks;
   landmarks.reserve(ekf.numLandmarks());
   for (int k = 0; k < static_cast<int>(ekf.numLandmarks()); ++k) {
@@ -521,14 +497,8 @@ void SlamPipeline::addOnsetPath(std::uint32_t from, const Eigen::Vector3d& odome
   // back from the fixed pose by their odometry.
   const std::uint32_t until =
       report->lost_path.empty() ? report->scan : report->lost_path.front().scan;
-  const Eigen::Vector3d to_fixed = composePose(motion_.pose(), inversePose(odometry_at_fix));
-  std::vector<LostPathPose> path;
-  for (const TrackedHistory::Record& r : history_.records()) {
-    if (r.scan < from || r.scan >= until) continue;
-    Eigen::Vector3d p = composePose(to_fixed, r.odometry);
-    p.z() = wrapAngle(p.z());
-    path.push_back({r.scan, r.stamp, p, /*tracked=*/true});
-  }
+  const std::vector<LostPathPose> path =
+      history_.path(from, until, composePose(motion_.pose(), inversePose(odometry_at_fix)));
   counters_.rederived_tracked_poses += path.size();
   report->lost_path.insert(report->lost_path.begin(), path.begin(), path.end());
 }

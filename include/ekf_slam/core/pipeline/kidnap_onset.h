@@ -27,6 +27,7 @@
 #include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/pipeline/lost_scans.h"
 #include "ekf_slam/core/pipeline/map_checkpoint.h"
+#include "ekf_slam/core/pipeline/scan_report.h"
 
 namespace ekf_slam {
 
@@ -101,6 +102,20 @@ class TrackedHistory {
   void forgetFrom(std::uint32_t scan);
   /// The newest state kept at or before `scan`, or null.
   const MapCheckpoint* snapshotAtOrBefore(std::uint32_t scan) const;
+
+  /// The tracked scans with observations before scan `before`, oldest first, under both
+  /// hypotheses: the filter's pose then, and `fix` (covariance `fix_covariance`, at odometry
+  /// pose `odometry_now`) carried back by the odometry with its chain's noise, turned from the
+  /// frame of an estimate with heading `estimate_yaw` (as Recovery::rederiveTracked). Valid while
+  /// the history is unchanged (they point to its observations).
+  std::vector<OnsetScan> hypotheses(const Eigen::Vector3d& fix,
+                                    const Eigen::Matrix3d& fix_covariance,
+                                    const Eigen::Vector3d& odometry_now, double estimate_yaw,
+                                    std::uint32_t before) const;
+  /// The kept scans from `from` to before `until` at their odometry poses moved by `to_fixed`
+  /// (a fix's frame), as re-derived tracked poses of a lost path.
+  std::vector<LostPathPose> path(std::uint32_t from, std::uint32_t until,
+                                 const Eigen::Vector3d& to_fixed) const;
 
   const std::deque<Record>& records() const { return records_; }
   /// The kept scans with observations, the odometry from each to the next and to now.

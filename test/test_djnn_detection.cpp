@@ -176,6 +176,31 @@ TEST(DJNNDetection, LostScansAreWeighedByTheEvidenceTrackingWouldHaveCounted) {
   EXPECT_EQ(d.evidence(6), 2);
 }
 
+// A landmark of the map before, still recent when the lost scans began: its evidence goes on over
+// them as tracking would have counted it (DataAssociation::landmarkOverLostScans).
+TEST(DJNNDetection, ARecentLandmarkIsWeighedOnOverTheLostScans) {
+  const auto look = [](char c) {
+    LostLook l;
+    l.seen = c == 'H';
+    l.in_sensor = c == '.' ? Eigen::Vector2d(100.0, 0.0) : Eigen::Vector2d(10.0, 1.0);
+    return l;
+  };
+  const auto replay = [&](const std::string& seq, LandmarkId id, DJNN* d) {
+    std::vector<LostLook> looks;
+    for (char c : seq) looks.push_back(look(c));
+    return d->landmarkOverLostScans(id, assoc_test::diag2(0.01, 0.01), looks);
+  };
+  DJNN d = makeDjnn();  // admit_evidence 2, remove_evidence 0
+  d.landmarkLoaded(1, 2);
+  d.landmarkLoaded(2, 2);
+  d.landmarkLoaded(3, 2);
+  EXPECT_TRUE(replay("mH", 1, &d));  // missed once, seen again
+  EXPECT_EQ(d.evidence(1), 2);
+  EXPECT_FALSE(replay("mmH", 2, &d));  // missed down to 0: removed (the sighting after is late)
+  EXPECT_TRUE(replay("..m", 3, &d));   // outside the penalty region nothing counts
+  EXPECT_EQ(d.evidence(3), 1);
+}
+
 TEST(DJNNDetection, MinimumRangeAndPolygonBoundThePenaltyRegion) {
   Scene s;
   const int seen = s.addLandmark({3, 0});

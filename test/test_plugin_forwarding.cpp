@@ -84,6 +84,12 @@ class RecordingAssociator : public DataAssociation {
                     std::to_string(looks.size()));
     return false;
   }
+  bool landmarkOverLostScans(LandmarkId id, const Eigen::Matrix2d&,
+                             const std::vector<LostLook>& looks) override {
+    calls.push_back("landmarkOverLostScans " + std::to_string(id) + " " +
+                    std::to_string(looks.size()));
+    return false;
+  }
   void poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& posterior) override {
     calls.push_back("poseCorrected " + std::to_string(prior.x()) + " " +
                     std::to_string(posterior.x()));
@@ -97,7 +103,7 @@ class RecordingAssociator : public DataAssociation {
 
 TEST(PluginForwarding, AssociatorWrapperForwardsEveryHook) {
   expectEveryVirtualForwarded("core/association/data_association.h", "DataAssociation",
-                              "ForwardingAssociator", 10);
+                              "ForwardingAssociator", 11);
   auto inner = std::make_shared<RecordingAssociator>();
   ForwardingAssociator wrapper(inner);
   wrapper.configure(MapParameterSource(std::map<std::string, std::string>{{"gate", "7"}}));
@@ -113,6 +119,8 @@ TEST(PluginForwarding, AssociatorWrapperForwardsEveryHook) {
   wrapper.landmarkLoaded(43, 5);
   EXPECT_FALSE(
       wrapper.landmarkFromLostScans(44, Eigen::Matrix2d::Identity(), std::vector<LostLook>(3)));
+  EXPECT_FALSE(
+      wrapper.landmarkOverLostScans(45, Eigen::Matrix2d::Identity(), std::vector<LostLook>(2)));
   wrapper.poseCorrected(Eigen::Vector3d(1.0, 0.0, 0.0), Eigen::Vector3d(2.0, 0.0, 0.0));
   wrapper.reset();
   EXPECT_EQ(wrapper.evidence(9), 10);
@@ -121,6 +129,7 @@ TEST(PluginForwarding, AssociatorWrapperForwardsEveryHook) {
   EXPECT_EQ(inner->calls,
             (std::vector<std::string>{"configure 7.000000", "associate 1", "landmarkAdded 0 42",
                                       "landmarkLoaded 43 5", "landmarkFromLostScans 44 3",
+                                      "landmarkOverLostScans 45 2",
                                       "poseCorrected 1.000000 2.000000", "reset"}));
 }
 

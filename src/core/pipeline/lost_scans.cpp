@@ -198,6 +198,8 @@ LostScanMapping mapLostScans(EkfSlam& ekf, const RangeBearingModel& model, const
     }
     if (!pairings.empty() && !ekf.update(pairings, model)) pairings.clear();
     out.poses.emplace_back(s->scan, ekf.pose());
+    out.paired_at.emplace_back();
+    for (const Pairing& p : pairings) out.paired_at.back().push_back(p.id);
     for (const Pairing& p : pairings) {
       const auto c = std::find(created.begin(), created.end(), p.id);
       if (c == created.end()) {

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
+#include <unordered_map>
 #include <utility>
 #include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/common/pose2d.h"
@@ -566,6 +567,7 @@ void SlamPipeline::mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d
       ++counters_.lost_map_removed;
     }
   }
+  weighRecentOverLostScans(m, report);
   filter_.restart();
   estimatedLostPath(m, report);
   for (const LandmarkId id : m.paired) book_.paired(id, std::nan(""));
@@ -577,6 +579,45 @@ void SlamPipeline::mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d
   index_.sync(ekf);
   report->lost_map_landmarks = n_kept;
   report->lost_map_pairings = static_cast<int>(m.paired.size());
+}
+
+void SlamPipeline::weighRecentOverLostScans(const LostScanMapping& m, ScanReport* report) {
+  // The landmarks of the map before that were still recent when the lost scans began: tracking
+  // would have gone on judging them over those scans (DJNN: its evidence, misses included), as
+  // it judges the ones made from the lost scans. Established ones are left as they are (the lost
+  // scans' gate pairs less than tracking does: weighed too, real trees go).
+  if (m.poses.empty()) return;
+  EkfSlam& ekf = filter_.ekf();
+  index_.sync(ekf);
+  const std::int64_t first = m.poses.back().first;  // newest first
+  std::unordered_map<LandmarkId, std::vector<LostLook>> looks;
+  std::vector<int> near;
+  for (std::size_t s = m.poses.size(); s-- > 0;) {  // oldest first
+    const Eigen::Vector3d sensor = model_.sensorPose(m.poses[s].second);
+    near.clear();
+    index_.query(ekf, sensor.head<2>(), config_.max_observation_range, &near);
+    for (const int k : near) {
+      const LandmarkId id = ekf.landmarkIds()[static_cast<std::size_t>(k)];
+      const std::int64_t made = book_.info(id).created_scan;
+      if (made < 0 || made >= first || first - made > config_.lost_recent_scans) continue;
+      LostLook l;
+      const std::vector<LandmarkId>& paired = m.paired_at[s];
+      l.seen = std::find(paired.begin(), paired.end(), id) != paired.end();
+      l.in_sensor = rotation2d(-sensor.z()) * (ekf.landmark(k) - sensor.head<2>());
+      looks[id].push_back(l);
+    }
+  }
+  std::vector<LandmarkId> ids;
+  for (const auto& entry : looks) ids.push_back(entry.first);
+  std::sort(ids.begin(), ids.end());  // the same order on every run
+  for (const LandmarkId id : ids) {
+    if (associator_->landmarkOverLostScans(id, ekf.landmarkCovariance(ekf.indexOf(id)), looks[id]))
+      continue;
+    ekf.removeLandmark(id);
+    book_.erase(id);
+    report->removed.push_back(id);
+    ++counters_.lost_map_removed;
+  }
 }
 
 void SlamPipeline::estimatedLostPath(const LostScanMapping& m, ScanReport* report) const {

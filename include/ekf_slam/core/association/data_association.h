@@ -118,6 +118,15 @@ class DataAssociation {
     return true;
   }
 
+  /// At a fix, landmark `id` of the map before, still recent when the lost scans began (made
+  /// within lost_recent_scans of them), was near those scans; `looks` holds the ones it was near,
+  /// oldest first. False: the associator's rules would have removed it had the scans been
+  /// tracked, and the pipeline removes it. The default keeps it.
+  virtual bool landmarkOverLostScans(LandmarkId /*id*/, const Eigen::Matrix2d& /*cov*/,
+                                     const std::vector<LostLook>& /*looks*/) {
+    return true;
+  }
+
   /// The EKF update of the last associate() call moved the pose estimate from `prior` to
   /// `posterior` (x, y, heading; map frame). Associators that keep features outside the map,
   /// placed from the prior pose, can move them along (DJNN's tentative features).
@@ -154,6 +163,10 @@ class ForwardingAssociator : public DataAssociation {
   bool landmarkFromLostScans(LandmarkId id, const Eigen::Matrix2d& cov,
                              const std::vector<LostLook>& looks) override {
     return inner_->landmarkFromLostScans(id, cov, looks);
+  }
+  bool landmarkOverLostScans(LandmarkId id, const Eigen::Matrix2d& cov,
+                             const std::vector<LostLook>& looks) override {
+    return inner_->landmarkOverLostScans(id, cov, looks);
   }
   void poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& posterior) override {
     inner_->poseCorrected(prior, posterior);

@@ -79,6 +79,8 @@ struct LostScanMapping {
   std::vector<LandmarkId> paired;   // landmarks of the map before, once per pairing
   /// Per scan carried back to, newest first: the vehicle's pose there after its update.
   std::vector<std::pair<std::uint32_t, Eigen::Vector3d>> poses;
+  /// ... and the landmarks its observations were paired with there.
+  std::vector<std::vector<LandmarkId>> paired_at;
   int scans = 0;    // scans carried back to
   int dropped = 0;  // new landmarks seen too few times, removed again
 };

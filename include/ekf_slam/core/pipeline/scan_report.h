@@ -175,8 +175,8 @@ struct PipelineCounters {
   std::uint64_t delayed_sightings = 0;
   std::uint64_t rejected_delayed_updates = 0;
   std::uint64_t dropped_sightings = 0;
-  /// Landmarks mapped from the lost scans that the associator's rules had removed by the fix
-  /// (DataAssociation::landmarkFromLostScans).
+  /// Landmarks mapped from the lost scans, or still recent when they began, that the associator's
+  /// rules had removed by the fix (DataAssociation::landmarkFromLostScans, landmarkOverLostScans).
   std::uint64_t lost_map_removed = 0;
   /// Fixes whose kidnap began before the scans undone already: the map went back to before it
   /// (lost_onset_scans).

@@ -212,6 +212,9 @@ class SlamPipeline {
   /// After a fix: maps what the scans processed lost saw (lost_map_scans; LostScans).
   void mapSeenWhileLost(const LostScans& lost, const Eigen::Vector3d& dead_reckoned,
                         ScanReport* report);
+  /// The map's landmarks still recent when the lost scans began, weighed by the associator's
+  /// rules over them (DataAssociation::landmarkOverLostScans).
+  void weighRecentOverLostScans(const LostScanMapping& m, ScanReport* report);
   /// The lost path's poses replaced by those the mapping of the lost scans estimated.
   void estimatedLostPath(const LostScanMapping& m, ScanReport* report) const;
 

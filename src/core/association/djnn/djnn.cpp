@@ -327,6 +327,28 @@ bool DJNN::landmarkFromLostScans(LandmarkId id, const Eigen::Matrix2d& cov,
   return true;
 }
 
+bool DJNN::landmarkOverLostScans(LandmarkId id, const Eigen::Matrix2d& cov,
+                                 const std::vector<LostLook>& looks) {
+  // Its evidence (eq. 9) carried on over the lost scans, as tracking would have counted it.
+  const EvidenceModel& model = paper_.evidenceModel();
+  double t = paper_.evidenceValue(id);
+  for (const LostLook& l : looks) {
+    if (l.seen) {
+      t = model.bump(t, model.step(true, cov));
+    } else if (paper_.inPenaltyRegion(l.in_sensor)) {
+      t = model.bump(t, model.step(false, cov));
+    } else {
+      continue;
+    }
+    if (t <= p_.paper.remove_evidence + 1e-9) {
+      paper_.forget(id);
+      return false;
+    }
+  }
+  paper_.setEvidence(id, t);
+  return true;
+}
+
 std::vector<TentativeFeature> DJNN::tentativeFeatures() const {
   std::vector<TentativeFeature> out;
   const TentativeSet& set = paper_.tentatives();

@@ -108,6 +108,11 @@ void DjnnPaper::reset() {
   ended_.clear();
 }
 
+double DjnnPaper::evidenceValue(LandmarkId id) const {
+  auto it = evidence_.find(id);
+  return it != evidence_.end() ? it->second : p_.initial_evidence;
+}
+
 int DjnnPaper::evidence(LandmarkId id) const {
   auto it = evidence_.find(id);
   // Whole units (exact for P_D = 1 without clutter, where every step is +-1).

@@ -88,6 +88,8 @@ class DJNN : public DataAssociation, private FeatureRules {
   AssociationResult associate(const AssociationContext& ctx) override;
   void landmarkAdded(int obs, LandmarkId id) override;
   void landmarkLoaded(LandmarkId id, std::uint32_t times_observed) override;
+  bool landmarkOverLostScans(LandmarkId id, const Eigen::Matrix2d& cov,
+                             const std::vector<LostLook>& looks) override;
   bool landmarkFromLostScans(LandmarkId id, const Eigen::Matrix2d& cov,
                              const std::vector<LostLook>& looks) override;
   void poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& posterior) override;

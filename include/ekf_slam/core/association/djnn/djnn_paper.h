@@ -218,6 +218,8 @@ class DjnnPaper {
   void forget(LandmarkId id) { evidence_.erase(id); }
   /// T in whole units (initial_evidence for a landmark not seen yet).
   int evidence(LandmarkId id) const;
+  /// T as counted (initial_evidence for a landmark not seen yet).
+  double evidenceValue(LandmarkId id) const;
   const EvidenceModel& evidenceModel() const { return model_; }
   TentativeSet& tentatives() { return tentatives_; }
   const TentativeSet& tentatives() const { return tentatives_; }

@@ -147,23 +147,26 @@ TEST(DJNNDetection, TentativeFeatureSurvivesAMissAtLowDetectionProbability) {
   EXPECT_EQ(decisions("0.5"), (std::vector<Decision>{Decision::kTentative, Decision::kNew}));
 }
 
-// The sensor region of eq. 9 honours the minimum range and the polygon: landmarks closer than
-// min_range or outside the polygon are not penalised; one inside it is.
+// Lost scans' looks at a landmark, one per character: 'H' seen, 'm' missed inside the penalty
+// region, '.' not seen and outside it.
+std::vector<LostLook> lostLooks(const std::string& seq) {
+  std::vector<LostLook> looks;
+  for (const char c : seq) {
+    LostLook l;
+    l.seen = c == 'H';
+    l.in_sensor = c == '.' ? Eigen::Vector2d(100.0, 0.0) : Eigen::Vector2d(10.0, 1.0);
+    looks.push_back(l);
+  }
+  return looks;
+}
+
 // At a fix the pipeline hands DJNN each landmark it mapped from the lost scans with what every
 // lost scan saw (DataAssociation::landmarkFromLostScans). DJNN counts its evidence over them as
 // tracking would have: from the first sighting, +1 seen and -1 missed inside the penalty region
 // (P_D = 1), admitted at admit_evidence, removed at remove_evidence. Kept only if it ends admitted.
 TEST(DJNNDetection, LostScansAreWeighedByTheEvidenceTrackingWouldHaveCounted) {
-  const auto look = [](char c) {
-    LostLook l;
-    l.seen = c == 'H';
-    l.in_sensor = c == '.' ? Eigen::Vector2d(100.0, 0.0) : Eigen::Vector2d(10.0, 1.0);
-    return l;
-  };
-  const auto replay = [&](const std::string& seq, LandmarkId id, DJNN* d) {
-    std::vector<LostLook> looks;
-    for (char c : seq) looks.push_back(look(c));
-    return d->landmarkFromLostScans(id, assoc_test::diag2(0.01, 0.01), looks);
+  const auto replay = [](const std::string& seq, LandmarkId id, DJNN* d) {
+    return d->landmarkFromLostScans(id, assoc_test::diag2(0.01, 0.01), lostLooks(seq));
   };
   DJNN d = makeDjnn();  // admit_evidence 2, remove_evidence 0
   EXPECT_TRUE(replay("HHHm", 1, &d));
@@ -179,16 +182,8 @@ TEST(DJNNDetection, LostScansAreWeighedByTheEvidenceTrackingWouldHaveCounted) {
 // A landmark of the map before, still recent when the lost scans began: its evidence goes on over
 // them as tracking would have counted it (DataAssociation::landmarkOverLostScans).
 TEST(DJNNDetection, ARecentLandmarkIsWeighedOnOverTheLostScans) {
-  const auto look = [](char c) {
-    LostLook l;
-    l.seen = c == 'H';
-    l.in_sensor = c == '.' ? Eigen::Vector2d(100.0, 0.0) : Eigen::Vector2d(10.0, 1.0);
-    return l;
-  };
-  const auto replay = [&](const std::string& seq, LandmarkId id, DJNN* d) {
-    std::vector<LostLook> looks;
-    for (char c : seq) looks.push_back(look(c));
-    return d->landmarkOverLostScans(id, assoc_test::diag2(0.01, 0.01), looks);
+  const auto replay = [](const std::string& seq, LandmarkId id, DJNN* d) {
+    return d->landmarkOverLostScans(id, assoc_test::diag2(0.01, 0.01), lostLooks(seq));
   };
   DJNN d = makeDjnn();  // admit_evidence 2, remove_evidence 0
   d.landmarkLoaded(1, 2);
@@ -201,6 +196,8 @@ TEST(DJNNDetection, ARecentLandmarkIsWeighedOnOverTheLostScans) {
   EXPECT_EQ(d.evidence(3), 1);
 }
 
+// The sensor region of eq. 9 honours the minimum range and the polygon: landmarks closer than
+// min_range or outside the polygon are not penalised; one inside it is.
 TEST(DJNNDetection, MinimumRangeAndPolygonBoundThePenaltyRegion) {
   Scene s;
   const int seen = s.addLandmark({3, 0});

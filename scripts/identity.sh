@@ -79,11 +79,19 @@ fi
 import csv, json, pathlib, re, sys
 out = pathlib.Path(sys.argv[1])
 timing = re.compile(r"(^|_)(time|wall|cpu|seconds|us|s)(_|$)|_us_|_s$|^write_s$|^bag$|^params$|^out$")
+# Numbers to 9 significant digits: glibc picks exp/log/sin variants by CPU, whose last bits
+# can differ between machines (eval_reloc's per-scan NEES did, with the same pairings and
+# run results, 5 Dec 2026).
+floating = re.compile(r"-?(\d+\.\d*|\.\d+|\d+(?=[eE]))([eE][-+]?\d+)?")
+def num(text):
+    return f"{float(text):.9g}" if floating.fullmatch(text) else text
 def clean(o):
     if isinstance(o, dict):
         return {k: clean(v) for k, v in o.items() if not timing.search(k)}
     if isinstance(o, list):
         return [clean(v) for v in o]
+    if isinstance(o, float):
+        return float(f"{o:.9g}")
     return o
 for run in sorted(p for p in out.iterdir() if p.is_dir()):
     norm = run / "normalised"
@@ -98,7 +106,7 @@ for run in sorted(p for p in out.iterdir() if p.is_dir()):
         elif f.suffix == ".csv":
             rows = list(csv.reader(f.read_text().splitlines()))
             keep = [i for i, h in enumerate(rows[0]) if not timing.search(h)] if rows else []
-            dst.write_text("".join(",".join(r[i] for i in keep if i < len(r)) + "\n" for r in rows))
+            dst.write_text("".join(",".join(num(r[i]) for i in keep if i < len(r)) + "\n" for r in rows))
         else:
             dst.write_bytes(f.read_bytes())
 PY

@@ -292,6 +292,38 @@ TEST(DJNNJoint, RecentlyPairedLandmarksAreLeftToNN) {
   EXPECT_EQ(d.stats().joint_scans, 2u);
 }
 
+// A closure scan (an observation gates with a landmark never paired) with a landmark tracked a
+// scan ago, the pose 0.5 m uncertain: "not in the map" for the tracked landmark's observation is
+// within joint_margin of its pairing, and no hypothesis pairs it with anything else. It is paired
+// as tracking pairs it, not held (a held sighting is one the filter does not use at that scan).
+TEST(DJNNJoint, ATrackedLandmarkIsPairedInAClosureScan) {
+  Scene s;
+  s.R = assoc_test::diag2(0.03, deg2rad(1));
+  const Eigen::Matrix2d tight = assoc_test::diag2(1e-4, 1e-4);
+  const int tracked = s.addLandmark({3.0, -0.5}, tight);
+  const int old = s.addLandmark({3.5, 1.5}, tight);
+  s.pose_cov = assoc_test::poseCov(0.01, 0.01, 0.001);
+  s.build();
+  DJNN d = makeDjnn(kJoint);
+  s.observeLandmark(tracked);
+  const AssociationResult first = d.associate(s.context(0.0));
+  ASSERT_EQ(first.decision[0], Decision::kPaired);
+  ASSERT_EQ(first.landmark[0], Scene::idOf(tracked));
+
+  s.pose_cov = assoc_test::poseCov(0.5, 0.5, 0.01);
+  s.build();
+  s.observations.clear();
+  s.truth.clear();
+  s.observeLandmark(tracked);
+  s.observePoint(s.true_landmarks[old] + Eigen::Vector2d(1.0, 0.0));  // gates with `old`
+  const AssociationResult r = d.associate(s.context(0.2));
+  EXPECT_EQ(d.stats().joint_scans, 2u);  // the old landmark makes it a closure scan
+  EXPECT_EQ(r.decision[0], Decision::kPaired);
+  EXPECT_EQ(r.landmark[0], Scene::idOf(tracked));
+  EXPECT_EQ(r.decision[1], Decision::kRejected);  // the closure itself stays held
+  EXPECT_EQ(d.stats().joint_held, 1u);
+}
+
 TEST(DJNNJoint, OffByDefaultAndValidated) {
   DJNN d;
   EXPECT_EQ(d.params().joint.loop_closure_age, 0.0);

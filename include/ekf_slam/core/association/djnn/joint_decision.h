@@ -5,8 +5,10 @@
 // maximum-likelihood assignment over the gated candidates, "not in the map" scored by the
 // densities (landmark_density + clutter_density), decides each observation only when every
 // hypothesis deciding it otherwise is joint_margin less likely; the rest are held (neither
-// paired nor a new landmark). With it on, the shift and density tests run only on the other
-// scans. Works with the remembered features, landmark spacing and held confirmations.
+// paired nor a new landmark), but for a pairing with a landmark tracked within loop_closure_age
+// whose only rival is "not in the map" (it decides no closure). With it on, the shift and density
+// tests run only on the other scans. Works with the remembered features, landmark spacing and held
+// confirmations.
 #pragma once
 
 #include <cstdint>

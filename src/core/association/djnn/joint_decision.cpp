@@ -156,8 +156,7 @@ bool JointDecision::decide(const AssociationContext& ctx, const Parts& parts, Lo
     // A hold guards against a wrong closure. An observation whose best pairs a landmark
     // tracked within loop_closure_age, and whose only rival is "not in the map", decides no
     // closure: it is paired as tracking would pair it (held, the filter would lose it).
-    const bool tracked = d.complete && !unconfirmed && d.best[k] >= 0 &&
-                         recentlyPaired(ctx.landmarkId(d.best[k]), scan->stamp) &&
+    const bool tracked = d.best[k] >= 0 && recentlyPaired(ctx.landmarkId(d.best[k]), scan->stamp) &&
                          !d.alternative[k].empty() && d.alternative[k][k] == -1;
     const bool close = d.alternative_cost[k] < d.best_cost + margin;
     if (!d.complete || unconfirmed || (close && !tracked)) {

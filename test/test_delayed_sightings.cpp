@@ -3,6 +3,7 @@
 // were taken from; a feature that is dropped leaves the state as if it had never been seen.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <functional>
 #include <map>
 #include <memory>
@@ -247,6 +248,49 @@ TEST(DelayedSightings, DjnnAdmissionUsesEverySighting) {
   SlamPipeline now(linearConfig(), now_assoc);
   drive(&now, [](int) { return false; });
   expectSameState(delayed.ekf(), now.ekf(), 1e-9);
+}
+
+// Scan k's decision for one point at `where(k)` (world frame, sighted without noise from the pose
+// (k, 0)) by DJNN in a pipeline, whose pose clones give the static test its joint fit.
+std::vector<Decision> djnnDecisions(const std::map<std::string, std::string>& params,
+                                    const std::function<Eigen::Vector2d(int)>& where) {
+  auto djnn = std::make_shared<DJNN>();
+  std::map<std::string, std::string> all = {{"sensor_range", "30"}, {"field_of_view", "6.283185"}};
+  all.insert(params.begin(), params.end());
+  djnn->configure(MapParameterSource(all));
+  SlamPipeline pipeline(linearConfig(), djnn);
+  std::vector<Decision> decisions;
+  for (int k = 0; k < kScans; ++k) {
+    OdometryInput o;
+    o.stamp = k - 0.5;
+    o.twist = Eigen::Vector2d(1.0, 0.0);
+    pipeline.addOdometry(o);
+    Observation z;
+    z.kind = MeasurementKind::kCartesian;
+    z.z = where(k) - Eigen::Vector2d(1.0 * k, 0.0);
+    z.R = Eigen::Vector2d(0.02, 0.05).asDiagonal();
+    decisions.push_back(pipeline.processObservations(k, {z}).association.decision[0]);
+  }
+  return decisions;
+}
+
+int admittedAt(const std::vector<Decision>& decisions) {
+  const auto it = std::find(decisions.begin(), decisions.end(), Decision::kNew);
+  return it == decisions.end() ? -1 : static_cast<int>(it - decisions.begin());
+}
+
+// A point walking 0.12 m a scan across the view: its seven sightings scatter about their mean by
+// about 8 (chi2(12, 0.9) = 18.5), so the scatter test admits it; their constant-velocity fit
+// shows the velocity (about 8 against chi2(2, 0.9) = 4.6), so the admission velocity test keeps
+// it out. A static point is admitted at its seventh sighting either way.
+TEST(DelayedSightings, AdmissionVelocityTestKeepsOutASteadyWalker) {
+  auto walker = [](int k) { return Eigen::Vector2d(6.0, 2.0 + 0.12 * k); };
+  auto post = [](int) { return Eigen::Vector2d(6.0, 2.0); };
+  const std::map<std::string, std::string> off = {{"admission_velocity_test", "false"}};
+  EXPECT_EQ(admittedAt(djnnDecisions(off, walker)), 6);
+  EXPECT_EQ(admittedAt(djnnDecisions({}, walker)), -1);
+  EXPECT_EQ(admittedAt(djnnDecisions({}, post)), 6);
+  EXPECT_EQ(admittedAt(djnnDecisions(off, post)), 6);
 }
 
 }  // namespace

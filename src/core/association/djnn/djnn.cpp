@@ -252,7 +252,9 @@ void DJNN::sighted(const AssociationContext& ctx, int slot, int obs, bool born) 
 Decision DJNN::decide(const AssociationContext& ctx, int obs, int slot, double evidence,
                       bool paper_admits) {
   const char force = scan_.force_new[obs];
-  const bool static_ok = static_test_.admits(paper_.tentatives()[slot]);
+  const Tentative& t = paper_.tentatives()[slot];
+  const bool static_ok =
+      static_test_.admits(t) && !(paper_admits && static_test_.movingAtAdmission(ctx, t, obs));
   const bool admitting = force == kForceAdmit || (force != kForceHeld && paper_admits && static_ok);
   if (admitting && spacing_.within(ctx, obs, scan_.cand, paper_.gate())) {
     ++stats_.spacing_refused;
@@ -267,8 +269,7 @@ Decision DJNN::decide(const AssociationContext& ctx, int obs, int slot, double e
   }
   if (paper_admits && static_ok) {
     pending_new_[obs] = evidence;
-    if (p_.static_test.learn_mover_speed)
-      pending_speed_[obs] = static_test_.resolvedSpeed(paper_.tentatives()[slot]);
+    if (p_.static_test.learn_mover_speed) pending_speed_[obs] = static_test_.resolvedSpeed(t);
     return Decision::kNew;
   }
   return Decision::kTentative;

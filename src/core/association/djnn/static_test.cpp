@@ -18,6 +18,7 @@ void StaticTest::read(const ParameterReader& r) {
   p_.static_min_speed = r.nonNegative("static_min_speed", def.static_min_speed);
   p_.learn_mover_speed = r.flag("learn_mover_speed", def.learn_mover_speed);
   p_.mover_speed_samples = r.integer("mover_speed_samples", def.mover_speed_samples, 1, 1000000);
+  p_.admission_velocity_test = r.flag("admission_velocity_test", def.admission_velocity_test);
 }
 
 void StaticTest::reset() {
@@ -247,6 +248,20 @@ bool StaticTest::admits(const Tentative& t) const {
   const double needed =
       p_.static_min_speed > 0.0 ? baseline_information_ : baselineInformation(v_min);
   return half_trace - gap >= needed;
+}
+
+bool StaticTest::movingAtAdmission(const AssociationContext& ctx, const Tentative& t,
+                                   int obs) const {
+  if (!p_.static_test || !p_.admission_velocity_test) return false;
+  // One static point (the scatter test, 2 (k - 1) dof) is a weak test against steady motion; a
+  // mover that stood still or walked slowly through the admission window passes it. The
+  // velocity of the constant-velocity fit (2 dof) is the strong one. Failing it only delays the
+  // admission to a later sighting, so it needs no minimum speed.
+  Eigen::Vector2d v;
+  Eigen::Matrix2d J;
+  double residual = 0.0;
+  int m = 0;
+  return jointTrack(ctx, t, obs, &v, &J, &residual, &m) && v.dot(J * v) > velocity_gate_;
 }
 
 double StaticTest::resolvedSpeed(const Tentative& t) const {

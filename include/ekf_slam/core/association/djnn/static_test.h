@@ -7,7 +7,8 @@
 // chi2(2), and admission waits until an object at that speed would have shown its motion),
 // learn_mover_speed (without static_min_speed: the same test and wait at a speed learned from the
 // landmarks that left the map unestablished, the movers that got in, once mover_speed_samples of
-// them did).
+// them did), admission_velocity_test (at admission, the sightings' joint constant-velocity fit
+// must show no velocity at static_probability).
 #pragma once
 
 #include <vector>
@@ -32,6 +33,8 @@ class StaticTest {
     /// With static_min_speed 0: estimate it from what was seen moving (docs/djnn.md).
     bool learn_mover_speed = false;
     int mover_speed_samples = 1;  ///< movers seen before the estimate is used
+    /// At admission, no velocity in the joint constant-velocity fit (docs/djnn.md).
+    bool admission_velocity_test = true;
   };
   void read(const ParameterReader& r);
   /// admit_evidence: the sightings admission waits for (and the gate table's size).
@@ -79,6 +82,10 @@ class StaticTest {
                double stamp) const;
   /// Enough static sightings, over a long enough time, for admission.
   bool admits(const Tentative& t) const;
+  /// admission_velocity_test: t's sightings with pose clones and observation `obs`, fitted with a
+  /// constant velocity (jointTrack), show a velocity beyond chi2(2, static_probability). False
+  /// when off or when the fit is not available (fewer than three such sightings, no clones).
+  bool movingAtAdmission(const AssociationContext& ctx, const Tentative& t, int obs) const;
   /// The slowest speed at which t's sightings would have shown motion (the inverse of the
   /// admission wait); infinity when its velocity is not determined.
   double resolvedSpeed(const Tentative& t) const;

@@ -224,22 +224,37 @@ TEST(DelayedSightings, CloneCountIsCapped) {
   EXPECT_EQ(p.ekf().numClones(), 0u);
 }
 
-// DJNN on a static landmark: its decisions are tentative until the evidence admits it, and the
-// landmark then carries every sighting (the same estimate as pairing from the first one).
-TEST(DelayedSightings, DjnnAdmissionUsesEverySighting) {
+// DJNN seeing all around to 30 m, with `params` on top.
+std::shared_ptr<DJNN> djnnAllAround(const std::map<std::string, std::string>& params = {}) {
   auto djnn = std::make_shared<DJNN>();
-  djnn->configure(MapParameterSource(
-      std::map<std::string, std::string>{{"sensor_range", "30"}, {"field_of_view", "6.283185"}}));
-  SlamPipeline delayed(linearConfig(), djnn);
+  std::map<std::string, std::string> all = {{"sensor_range", "30"}, {"field_of_view", "6.283185"}};
+  all.insert(params.begin(), params.end());
+  djnn->configure(MapParameterSource(all));
+  return djnn;
+}
+
+// Drives `pipeline` as drive() does, scan k observing `observe(k)`; returns the decision on each
+// scan's first observation.
+std::vector<Decision> firstDecisions(SlamPipeline* pipeline,
+                                     const std::function<std::vector<Observation>(int)>& observe) {
   std::vector<Decision> decisions;
   for (int k = 0; k < kScans; ++k) {
     OdometryInput o;
     o.stamp = k - 0.5;
     o.twist = Eigen::Vector2d(1.0, 0.0);
-    delayed.addOdometry(o);
-    decisions.push_back(
-        delayed.processObservations(k, sightings(k, false)).association.decision[0]);
+    pipeline->addOdometry(o);
+    decisions.push_back(pipeline->processObservations(k, observe(k)).association.decision[0]);
   }
+  return decisions;
+}
+
+// DJNN on a static landmark: its decisions are tentative until the evidence admits it, and the
+// landmark then carries every sighting (the same estimate as pairing from the first one).
+TEST(DelayedSightings, DjnnAdmissionUsesEverySighting) {
+  auto djnn = djnnAllAround();
+  SlamPipeline delayed(linearConfig(), djnn);
+  const std::vector<Decision> decisions =
+      firstDecisions(&delayed, [](int k) { return sightings(k, false); });
   const int admitted = static_cast<int>(
       std::find(decisions.begin(), decisions.end(), Decision::kNew) - decisions.begin());
   ASSERT_EQ(admitted, djnn->params().paper.admit_evidence - 1);
@@ -254,24 +269,14 @@ TEST(DelayedSightings, DjnnAdmissionUsesEverySighting) {
 // (k, 0)) by DJNN in a pipeline, whose pose clones give the static test its joint fit.
 std::vector<Decision> djnnDecisions(const std::map<std::string, std::string>& params,
                                     const std::function<Eigen::Vector2d(int)>& where) {
-  auto djnn = std::make_shared<DJNN>();
-  std::map<std::string, std::string> all = {{"sensor_range", "30"}, {"field_of_view", "6.283185"}};
-  all.insert(params.begin(), params.end());
-  djnn->configure(MapParameterSource(all));
-  SlamPipeline pipeline(linearConfig(), djnn);
-  std::vector<Decision> decisions;
-  for (int k = 0; k < kScans; ++k) {
-    OdometryInput o;
-    o.stamp = k - 0.5;
-    o.twist = Eigen::Vector2d(1.0, 0.0);
-    pipeline.addOdometry(o);
+  SlamPipeline pipeline(linearConfig(), djnnAllAround(params));
+  return firstDecisions(&pipeline, [&](int k) {
     Observation z;
     z.kind = MeasurementKind::kCartesian;
     z.z = where(k) - Eigen::Vector2d(1.0 * k, 0.0);
     z.R = Eigen::Vector2d(0.02, 0.05).asDiagonal();
-    decisions.push_back(pipeline.processObservations(k, {z}).association.decision[0]);
-  }
-  return decisions;
+    return std::vector<Observation>{z};
+  });
 }
 
 int admittedAt(const std::vector<Decision>& decisions) {

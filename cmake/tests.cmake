@@ -6,6 +6,17 @@ find_package(rostest REQUIRED)
 # ekf_slam_test(NAME [ROSTEST launch] LIBS lib... [PROGRAMS target...]): test/NAME.cpp linked to
 # LIBS; with ROSTEST a rostest of test/<launch>.test. Each program is built first and its path is
 # the macro <TARGET>_BIN (EKF_SLAM_NODE_BIN for the node).
+# A precompiled header of its own for the tests (executables: the libraries' -fPIC one does not
+# fit them): GoogleTest, Eigen and the standard library, which every test file parses. It takes
+# about 9 % off the tests' compile time (docs/benchmarks.md, "CI time").
+if(EKF_SLAM_PCH)
+  file(WRITE ${CMAKE_BINARY_DIR}/test_pch_only.cpp "")
+  add_library(ekf_slam_test_pch OBJECT ${CMAKE_BINARY_DIR}/test_pch_only.cpp)
+  target_link_libraries(ekf_slam_test_pch PRIVATE GTest::gtest Eigen3::Eigen)
+  target_precompile_headers(ekf_slam_test_pch PRIVATE <gtest/gtest.h> ${EKF_SLAM_PCH_HEADERS}
+                            <fstream> <random>)
+endif()
+
 function(ekf_slam_test name)
   cmake_parse_arguments(T "" "ROSTEST" "LIBS;PROGRAMS" ${ARGN})
   if(T_ROSTEST)
@@ -16,6 +27,9 @@ function(ekf_slam_test name)
   target_include_directories(${name} PRIVATE test)
   target_link_libraries(${name} ${T_LIBS})
   target_compile_definitions(${name} PRIVATE EKF_SLAM_TEST_DATA="${PROJECT_SOURCE_DIR}/test/data")
+  if(EKF_SLAM_PCH)
+    target_precompile_headers(${name} REUSE_FROM ekf_slam_test_pch)
+  endif()
   add_dependencies(${name} ekf_slam_association_plugins ekf_slam_relocalisation_plugins
                    ekf_slam_extraction_plugins)
   foreach(p ${T_PROGRAMS})

@@ -13,7 +13,9 @@ source "$EKF_SLAM_DEVEL/setup.bash"
 rm -rf "$EKF_SLAM_BUILD/test_results"
 cd "$EKF_SLAM_BUILD"
 set +e
-ctest --output-on-failure --timeout 600
+# One test per core: most of the rostests' time is waiting (a master, a bag played on the clock),
+# and their launch files give every run its own name (test/node.test), so they run side by side.
+ctest --output-on-failure --timeout 600 -j"$(nproc)"
 ctest_rc=$?
 set -e
 # ctest only knows targets; count test cases from the JUnit files that gtest and rostest write.

@@ -3,12 +3,10 @@
 # libraries, so every test waits for them.
 find_package(rostest REQUIRED)
 
-# ekf_slam_test(NAME [ROSTEST launch] LIBS lib... [PROGRAMS target...]): test/NAME.cpp linked to
-# LIBS; with ROSTEST a rostest of test/<launch>.test. Each program is built first and its path is
-# the macro <TARGET>_BIN (EKF_SLAM_NODE_BIN for the node).
 # A precompiled header of its own for the tests (executables: the libraries' -fPIC one does not
 # fit them): GoogleTest, Eigen and the standard library, which every test file parses. It takes
 # about 9 % off the tests' compile time (docs/benchmarks.md, "CI time").
+#
 # The tests compile unoptimised: their own code sets up and checks, and the code they test is in
 # the libraries, compiled at the build type's level. -O0 takes 20 % off a test file's compile
 # time and costs the test run nothing measurable (docs/benchmarks.md, "CI time").
@@ -22,6 +20,9 @@ if(EKF_SLAM_PCH)
                             <fstream> <random>)
 endif()
 
+# ekf_slam_test(NAME [ROSTEST launch] LIBS lib... [PROGRAMS target...]): test/NAME.cpp linked to
+# LIBS; with ROSTEST a rostest of test/<launch>.test. Each program is built first and its path is
+# the macro <TARGET>_BIN (EKF_SLAM_NODE_BIN for the node).
 function(ekf_slam_test name)
   cmake_parse_arguments(T "" "ROSTEST" "LIBS;PROGRAMS" ${ARGN})
   if(T_ROSTEST)

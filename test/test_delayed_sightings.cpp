@@ -298,6 +298,18 @@ TEST(DelayedSightings, AdmissionVelocityTestKeepsOutASteadyWalker) {
   EXPECT_EQ(admittedAt(djnnDecisions(off, post)), 6);
 }
 
+// A slower walker, 0.08 m a scan: its fit's velocity statistic (about 3.5) lies between the
+// default gate, chi2(2, 0.7) = 2.4, and chi2(2, 0.9) = 4.6. The default keeps it out; the gate at
+// 0.9 lets it in at the seventh sighting. The static point is admitted there either way.
+TEST(DelayedSightings, AdmissionVelocityGateIsSetForPowerAgainstMovers) {
+  auto walker = [](int k) { return Eigen::Vector2d(6.0, 2.0 + 0.08 * k); };
+  auto post = [](int) { return Eigen::Vector2d(6.0, 2.0); };
+  const std::map<std::string, std::string> loose = {{"admission_velocity_probability", "0.9"}};
+  EXPECT_EQ(admittedAt(djnnDecisions(loose, walker)), 6);
+  EXPECT_EQ(admittedAt(djnnDecisions({}, walker)), -1);
+  EXPECT_EQ(admittedAt(djnnDecisions({}, post)), 6);
+}
+
 }  // namespace
 }  // namespace ekf_slam
 

@@ -19,6 +19,8 @@ void StaticTest::read(const ParameterReader& r) {
   p_.learn_mover_speed = r.flag("learn_mover_speed", def.learn_mover_speed);
   p_.mover_speed_samples = r.integer("mover_speed_samples", def.mover_speed_samples, 1, 1000000);
   p_.admission_velocity_test = r.flag("admission_velocity_test", def.admission_velocity_test);
+  p_.admission_velocity_probability =
+      r.probability("admission_velocity_probability", def.admission_velocity_probability);
 }
 
 void StaticTest::reset() {
@@ -47,6 +49,7 @@ void StaticTest::configure(int admit_evidence) {
   static_gate_ =
       Chi2Table(p_.static_probability, 2 * std::max({admit_evidence, 2, kMaxJointSightings}));
   velocity_gate_ = chi2Quantile(p_.static_probability, 2);
+  admission_gate_ = chi2Quantile(p_.admission_velocity_probability, 2);
   baseline_information_ = baselineInformation(p_.static_min_speed);
   reset();
 }
@@ -256,12 +259,13 @@ bool StaticTest::movingAtAdmission(const AssociationContext& ctx, const Tentativ
   // One static point (the scatter test, 2 (k - 1) dof) is a weak test against steady motion; a
   // mover that stood still or walked slowly through the admission window passes it. The
   // velocity of the constant-velocity fit (2 dof) is the strong one. Failing it only delays the
-  // admission to a later sighting, so it needs no minimum speed.
+  // admission to a later sighting, so it needs no minimum speed, and its gate
+  // (admission_velocity_probability) can refuse a static point now and then.
   Eigen::Vector2d v;
   Eigen::Matrix2d J;
   double residual = 0.0;
   int m = 0;
-  return jointTrack(ctx, t, obs, &v, &J, &residual, &m) && v.dot(J * v) > velocity_gate_;
+  return jointTrack(ctx, t, obs, &v, &J, &residual, &m) && v.dot(J * v) > admission_gate_;
 }
 
 double StaticTest::resolvedSpeed(const Tentative& t) const {

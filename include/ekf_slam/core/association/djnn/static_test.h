@@ -8,7 +8,7 @@
 // learn_mover_speed (without static_min_speed: the same test and wait at a speed learned from the
 // landmarks that left the map unestablished, the movers that got in, once mover_speed_samples of
 // them did), admission_velocity_test (at admission, the sightings' joint constant-velocity fit
-// must show no velocity at static_probability).
+// must show no velocity at admission_velocity_probability).
 #pragma once
 
 #include <vector>
@@ -35,6 +35,9 @@ class StaticTest {
     int mover_speed_samples = 1;  ///< movers seen before the estimate is used
     /// At admission, no velocity in the joint constant-velocity fit (docs/djnn.md).
     bool admission_velocity_test = true;
+    /// Its gate, chi2(2, p): a refusal only delays the admission (the sightings are kept), so
+    /// the gate is set for power against movers rather than for few refusals (docs/djnn.md).
+    double admission_velocity_probability = 0.7;
   };
   void read(const ParameterReader& r);
   /// admit_evidence: the sightings admission waits for (and the gate table's size).
@@ -83,8 +86,9 @@ class StaticTest {
   /// Enough static sightings, over a long enough time, for admission.
   bool admits(const Tentative& t) const;
   /// admission_velocity_test: t's sightings with pose clones and observation `obs`, fitted with a
-  /// constant velocity (jointTrack), show a velocity beyond chi2(2, static_probability). False
-  /// when off or when the fit is not available (fewer than three such sightings, no clones).
+  /// constant velocity (jointTrack), show a velocity beyond chi2(2,
+  /// admission_velocity_probability). False when off or when the fit is not available (fewer than
+  /// three such sightings, no clones).
   bool movingAtAdmission(const AssociationContext& ctx, const Tentative& t, int obs) const;
   /// The slowest speed at which t's sightings would have shown motion (the inverse of the
   /// admission wait); infinity when its velocity is not determined.
@@ -112,6 +116,7 @@ class StaticTest {
   int admit_evidence_ = 7;
   Chi2Table static_gate_;
   double velocity_gate_ = 0.0;         ///< chi2(2, static_probability)
+  double admission_gate_ = 0.0;        ///< chi2(2, admission_velocity_probability)
   double baseline_information_ = 0.0;  ///< least velocity information for admission [s^2/m^2]
   std::vector<double> mover_speeds_;   ///< learned
   double learned_speed_ = 0.0;         ///< 0 until mover_speed_samples movers were seen

@@ -111,6 +111,36 @@ TEST(DJNNRemembered, HoleIsExplainedAndTheTruthDecided) {
   }
 }
 
+// A marker seen when no landmark was paired near it (the first seconds of a run, before the first
+// landmark) has no anchor at its sightings. At its timeout it is anchored to the nearest landmark
+// with both estimates' uncertainty, and the closure is decided as with an anchor. Without that it
+// was forgotten, and a closure back to the start shifted the scan onto the mapped markers.
+TEST(DJNNRemembered, AFeatureSeenWithNoLandmarkPairedIsAnchoredAtItsTimeout) {
+  DJNN d = makeJoint(true);
+  {
+    Scene s;
+    rowWithHole(&s, 0.005);
+    s.pose_cov = assoc_test::poseCov(0.005, 0.005, 0.0005);  // near the start: known to 5 mm
+    s.build();
+    for (double t : {0.0, 1.0}) {
+      s.observations.clear();
+      s.truth.clear();
+      s.observePoint(marker(kHole));  // nothing else seen: no landmark paired
+      d.associate(s.context(t));
+    }
+    s.observations.clear();
+    s.truth.clear();
+    s.observePoint({-40.0, 0.0});
+    d.associate(s.context(20.0));
+  }
+  EXPECT_EQ(d.stats().remembered, 1u);
+  EXPECT_EQ(d.stats().remembered_late_anchor, 1u);
+  const Closure c = loopClosure(&d, 0.8);
+  EXPECT_EQ(c.wrong, 0);
+  EXPECT_EQ(c.right, 3);
+  EXPECT_EQ(c.result.decision[1], Decision::kNew);  // marker kHole
+}
+
 // Held sightings (docs/djnn.md, "Sightings held at a closure"): the held scan's observations feed
 // tentative features that are never admitted; when the next scan, its pose now known, decides the
 // closure, each pairing names the held feature of its marker, whose sightings the pipeline then

@@ -131,6 +131,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
     return result;
   }
   ++stats_.scans;
+  ctx_ = &ctx;  // for the hooks the paper's steps call back (dropping), this scan only
   scan_.stamp = ctx.stamp();
   scan_.sensor_pose = ctx.sensorPose();
   scan_.kind.resize(m);
@@ -182,6 +183,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   held_sightings_.join(ctx, scan_, this, &paper_, &result, &stats_);
   paper_.countFeatureEvidence(ctx, &scan_, &result, this, &stats_);
 
+  ctx_ = nullptr;
   trackAdmitted(ctx, result);
   if (joint_.on()) {
     joint_.record(result, scan_.stamp);
@@ -237,7 +239,10 @@ void DJNN::started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d
 }
 
 void DJNN::dropping(int slot, bool stale) {
-  if (stale) remembered_.timedOut(paper_.tentatives()[slot], &stats_);
+  if (!stale || ctx_ == nullptr) return;
+  remembered_.timedOut(*ctx_, paper_.tentatives()[slot],
+                       p_.paper.sensor.max_range + p_.paper.range_margin, paper_.tentativeGate(),
+                       &stats_);
 }
 
 void DJNN::sighted(const AssociationContext& ctx, int slot, int obs, bool born) {

@@ -30,6 +30,11 @@ void RememberedFeatures::anchor(const AssociationContext& ctx, const LocalScan& 
   if (!on()) return;
   double best = kInf;
   t->anchor = kNoLandmark;
+  const Eigen::Matrix3d P = ctx.ekf().poseCovariance();
+  const Eigen::Vector2d lever = t->position - scan.sensor_pose.head<2>();
+  const Eigen::Vector2d perp_lever(-lever.y(), lever.x());
+  t->pose_cov =
+      P.topLeftCorner<2, 2>() + std::max(0.0, P(2, 2)) * perp_lever * perp_lever.transpose();
   for (int j : scan.cand) {
     // Only a landmark paired recently moves with the pose the feature was placed from; an old one
     // (at a loop closure) is off by the whole pose error.
@@ -53,10 +58,36 @@ void RememberedFeatures::anchor(const AssociationContext& ctx, const LocalScan& 
   }
 }
 
-void RememberedFeatures::timedOut(const Tentative& t, DjnnStats* stats) {
-  if (!on() || t.sightings < p_.remembered_sightings || t.anchor == kNoLandmark) return;
-  remembered_[t.anchor].push_back({t.anchor_offset, t.anchor_cov, keys_++});
+void RememberedFeatures::timedOut(const AssociationContext& ctx, const Tentative& t, double radius,
+                                  double tentative_gate, DjnnStats* stats) {
+  if (!on() || t.sightings < p_.remembered_sightings) return;
+  if (t.anchor != kNoLandmark) {
+    remembered_[t.anchor].push_back({t.anchor_offset, t.anchor_cov, keys_++});
+    ++stats->remembered;
+    return;
+  }
+  // No landmark moved with the pose it was seen from (none in view, or none yet: the markers
+  // passed in the first seconds of a run, which a loop closure back to the start needs). Its
+  // place in the map frame is known to its noise plus the pose's uncertainty then; so is the
+  // nearest landmark's now. Their offset, with both, anchors it.
+  const EkfSlam& ekf = ctx.ekf();
+  int k = -1;
+  double best = kInf;
+  for (int j : ctx.landmarksNear(t.position, radius)) {
+    const double d2 = (t.position - ekf.landmark(j)).squaredNorm();
+    if (d2 < best) {
+      best = d2;
+      k = j;
+    }
+  }
+  if (k < 0) return;
+  const Eigen::Vector2d offset = t.position - ekf.landmark(k);
+  const Eigen::Matrix2d cov = 2.0 * t.cov + t.pose_cov + ekf.landmarkCovariance(k);
+  // Within its gate of that landmark it is that landmark seen (or it is too vague to tell).
+  if (offset.dot(cov.inverse() * offset) <= tentative_gate) return;
+  remembered_[ctx.landmarkId(k)].push_back({offset, cov, keys_++});
   ++stats->remembered;
+  ++stats->remembered_late_anchor;
 }
 
 // Remembered features enter as virtual observations paired with their anchor landmark: the

@@ -146,6 +146,7 @@ class DJNN : public DataAssociation, private FeatureRules {
   HeldSightings held_sightings_;
 
   LocalScan scan_;
+  const AssociationContext* ctx_ = nullptr;  ///< during associate() only (the hooks' context)
   std::vector<double> pending_new_;    ///< per observation of the last scan: T at admission, or -1
   std::vector<double> pending_speed_;  ///< per observation: StaticTest::resolvedSpeed at admission
   /// Landmarks DJNN admitted: the speed their sightings resolved then, and pairings since.

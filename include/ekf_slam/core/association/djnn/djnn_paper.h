@@ -63,6 +63,8 @@ struct DjnnStats {
   std::uint64_t joint_incomplete = 0;     ///< joint searches over budget (scan held)
   std::uint64_t remembered = 0;           ///< tentative features remembered at their timeout
   std::uint64_t remembered_admitted = 0;  ///< observations admitted on a remembered feature
+  /// Of `remembered`: seen with no landmark to anchor to, anchored at the timeout.
+  std::uint64_t remembered_late_anchor = 0;
   /// Admissions refused: the source lay within landmark_spacing of a map landmark.
   std::uint64_t spacing_refused = 0;
   std::uint64_t held_streaks = 0;       ///< runs of held joint scans that ended

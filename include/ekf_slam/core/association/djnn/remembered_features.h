@@ -51,8 +51,11 @@ class RememberedFeatures {
   /// within its gate of the anchor (`tentative_gate`) it is that landmark seen again: no anchor.
   void anchor(const AssociationContext& ctx, const LocalScan& scan, Tentative* t,
               const std::function<bool(LandmarkId)>& recently_paired, double tentative_gate) const;
-  /// A tentative feature timed out with evidence left: remembered if seen often enough.
-  void timedOut(const Tentative& t, DjnnStats* stats);
+  /// A tentative feature timed out with evidence left: remembered if seen often enough. One
+  /// seen when no landmark was paired near it (the start of a run, before the first landmark)
+  /// is anchored now to the nearest landmark within `radius`, with both estimates' uncertainty.
+  void timedOut(const AssociationContext& ctx, const Tentative& t, double radius,
+                double tentative_gate, DjnnStats* stats);
   /// The joint decision's options: the remembered features anchored to the scan's candidates,
   /// and the live features in `live` (slots) anchored to one.
   void options(const AssociationContext& ctx, const LocalScan& scan, const TentativeSet& tentatives,

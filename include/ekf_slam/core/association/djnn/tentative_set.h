@@ -49,6 +49,9 @@ struct Tentative {
   LandmarkId anchor = kNoLandmark;
   Eigen::Vector2d anchor_offset = Eigen::Vector2d::Zero();
   Eigen::Matrix2d anchor_cov = Eigen::Matrix2d::Zero();
+  /// The pose's uncertainty at the feature's place at its last sighting (position, and heading
+  /// times the lever): a feature seen with no anchor is anchored at its timeout with it.
+  Eigen::Matrix2d pose_cov = Eigen::Matrix2d::Zero();
   bool held_birth = false;  ///< started by an observation the joint decision held
   /// The latest sightings since the last (re)start, oldest first (at most
   /// StaticTest::kMaxJointSightings).

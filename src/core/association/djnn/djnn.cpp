@@ -131,7 +131,6 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
     return result;
   }
   ++stats_.scans;
-  ctx_ = &ctx;  // for the hooks the paper's steps call back (dropping), this scan only
   scan_.stamp = ctx.stamp();
   scan_.sensor_pose = ctx.sensorPose();
   scan_.kind.resize(m);
@@ -183,7 +182,6 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   held_sightings_.join(ctx, scan_, this, &paper_, &result, &stats_);
   paper_.countFeatureEvidence(ctx, &scan_, &result, this, &stats_);
 
-  ctx_ = nullptr;
   trackAdmitted(ctx, result);
   if (joint_.on()) {
     joint_.record(result, scan_.stamp);
@@ -238,9 +236,9 @@ void DJNN::started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d
   t->history.clear();
 }
 
-void DJNN::dropping(int slot, bool stale) {
-  if (!stale || ctx_ == nullptr) return;
-  remembered_.timedOut(*ctx_, paper_.tentatives()[slot],
+void DJNN::dropping(const AssociationContext& ctx, int slot, bool stale) {
+  if (!stale) return;
+  remembered_.timedOut(ctx, paper_.tentatives()[slot],
                        p_.paper.sensor.max_range + p_.paper.range_margin, paper_.tentativeGate(),
                        &stats_);
 }

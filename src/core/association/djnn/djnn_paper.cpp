@@ -403,10 +403,11 @@ void DjnnPaper::restartFeature(int slot, const Eigen::Vector2d& z, const Eigen::
   tentatives_.move(slot, z);
 }
 
-void DjnnPaper::dropFeature(int slot, bool stale, FeatureRules* rules) {
+void DjnnPaper::dropFeature(const AssociationContext& ctx, int slot, bool stale,
+                            FeatureRules* rules) {
   Tentative& t = tentatives_[slot];
   if (!t.alive) return;
-  rules->dropping(slot, stale);
+  rules->dropping(ctx, slot, stale);
   ended_.push_back(t.key);
   t.key = kNoFeature;
   tentatives_.remove(slot);
@@ -536,7 +537,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     }
     const bool stale = p_.tentative_timeout > 0.0 && stamp - t.last_seen > p_.tentative_timeout;
     if (t.evidence <= p_.remove_evidence + kEvidenceEps || stale) {
-      dropFeature(slot, stale && t.evidence > p_.remove_evidence + kEvidenceEps, rules);
+      dropFeature(ctx, slot, stale && t.evidence > p_.remove_evidence + kEvidenceEps, rules);
       ++stats->tentative_dropped;
     }
   }
@@ -554,7 +555,8 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     result->decision[i] = rules->decide(ctx, i, slot, t, t >= p_.admit_evidence - kEvidenceEps);
     result->feature[i] = tentatives_[slot].key;
     if (result->decision[i] == Decision::kNew) {
-      dropFeature(slot, false, rules);  // now the pipeline's landmark; its T in landmarkAdded()
+      dropFeature(ctx, slot, false,
+                  rules);  // now the pipeline's landmark; its T in landmarkAdded()
       ++stats->admitted;
     }
   }
@@ -565,7 +567,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
       const int slot = tentatives_.nextSweepSlot();
       const Tentative& t = tentatives_[slot];
       if (t.alive && stamp - t.last_seen > p_.tentative_timeout) {
-        dropFeature(slot, true, rules);
+        dropFeature(ctx, slot, true, rules);
         ++stats->tentative_dropped;
       }
     }

@@ -43,7 +43,7 @@ void HeldSightings::join(const AssociationContext& ctx, const LocalScan& scan, F
     }
     if (best < 0) continue;
     result->feature[i] = set[best].key;
-    paper->dropFeature(best, false, rules);
+    paper->dropFeature(ctx, best, false, rules);
     ++stats->held_joined;
   }
 }

@@ -120,7 +120,7 @@ class DJNN : public DataAssociation, private FeatureRules {
                    const Eigen::Matrix2d& C, double stamp) override;
   void started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
                double stamp) override;
-  void dropping(int slot, bool stale) override;
+  void dropping(const AssociationContext& ctx, int slot, bool stale) override;
   void sighted(const AssociationContext& ctx, int slot, int obs, bool born) override;
   Decision decide(const AssociationContext& ctx, int obs, int slot, double evidence,
                   bool paper_admits) override;
@@ -146,7 +146,6 @@ class DJNN : public DataAssociation, private FeatureRules {
   HeldSightings held_sightings_;
 
   LocalScan scan_;
-  const AssociationContext* ctx_ = nullptr;  ///< during associate() only (the hooks' context)
   std::vector<double> pending_new_;    ///< per observation of the last scan: T at admission, or -1
   std::vector<double> pending_speed_;  ///< per observation: StaticTest::resolvedSpeed at admission
   /// Landmarks DJNN admitted: the speed their sightings resolved then, and pairings since.

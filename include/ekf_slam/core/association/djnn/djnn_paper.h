@@ -152,7 +152,7 @@ class FeatureRules {
   virtual void started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
                        double stamp) = 0;
   /// Feature `slot` is dropped; `stale`: it timed out with evidence left.
-  virtual void dropping(int slot, bool stale) = 0;
+  virtual void dropping(const AssociationContext& ctx, int slot, bool stale) = 0;
   /// Observation `obs` was matched to feature `slot` in this scan, or started it (`born`).
   virtual void sighted(const AssociationContext& ctx, int slot, int obs, bool born) = 0;
   /// The decision (kNew or kTentative) on observation `obs` whose feature `slot` has evidence
@@ -233,7 +233,7 @@ class DjnnPaper {
   void restartFeature(int slot, const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp,
                       const Eigen::Vector2d& heading_lever, FeatureRules* rules,
                       double detectable = 1.0);
-  void dropFeature(int slot, bool stale, FeatureRules* rules);
+  void dropFeature(const AssociationContext& ctx, int slot, bool stale, FeatureRules* rules);
   void reset();
 
  private:

@@ -5,7 +5,7 @@
 #
 #   scripts/sanitize.sh                      # build folder $EKF_SLAM_SANITIZE_BUILD
 #   EKF_SLAM_SANITIZE_BUILD=/tmp/asan EKF_SLAM_SANITIZE_JOBS=1 scripts/sanitize.sh
-#   SANITIZE_TESTS=test_bag_faults scripts/sanitize.sh   # a ctest regex instead of every gtest
+#   SANITIZE_TESTS=tests_offline scripts/sanitize.sh     # a ctest regex instead of every gtest
 #
 # About 15 min of CPU for the build on 2 cores (no ccache hits: other flags); not part of CI
 # (docs/faults.md).

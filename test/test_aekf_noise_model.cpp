@@ -1,18 +1,19 @@
 // The `aekf` world's parameter file (sim::pipelineParametersFor) describes the simulator's
 // odometry noise: the normalised error of each control step's twist against the noise-free one
 // has the chi-square(2) mean 2 with the filter's twist covariance, on straights and in turns, and
-// the wheel factors, constant in the simulator, get no random walk (docs/notes/2026-11-to-12-results-record.md, AEKF).
+// the wheel factors, constant in the simulator, get no random walk
+// (docs/notes/2026-11-to-12-results-record.md, AEKF).
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include <Eigen/LU>
 
-#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/core/filter/motion_models.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_aekf_noise_model {
 
 TEST(AekfNoiseModel, TwistCovarianceMatchesTheSimulatedStepNoise) {
   const sim::World w = sim::makeWorld("aekf");
@@ -46,10 +47,5 @@ TEST(AekfNoiseModel, TwistCovarianceMatchesTheSimulatedStepNoise) {
   EXPECT_EQ(config.correction.track_width, w.vehicle.track_width);
 }
 
-}  // namespace
+}  // namespace test_aekf_noise_model
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -11,7 +11,7 @@
 #include "ekf_slam/evaluation/association_ceiling.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_association_ceiling {
 
 struct Shares {
   double joint = 0.0, individual = 0.0, marginal = 0.0, marginal_expected = 0.0;
@@ -119,10 +119,5 @@ TEST(AssociationCeiling, BadInputThrows) {
   EXPECT_TRUE(c.marginal.empty());
 }
 
-}  // namespace
+}  // namespace test_association_ceiling
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

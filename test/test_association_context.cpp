@@ -11,12 +11,12 @@
 #include <Eigen/Dense>
 
 #include "association_fixtures.h"
-#include "ekf_slam/core/common/angles.h"
-#include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/core/association/nn.h"
+#include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_association_context {
 
 using assoc_test::Scene;
 
@@ -175,10 +175,5 @@ TEST(AssociationContext, DecisionNames) {
   EXPECT_STREQ(toString(Decision::kRejected), "rejected");
 }
 
-}  // namespace
+}  // namespace test_association_context
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -11,7 +11,7 @@
 #include "ekf_slam/evaluation/simulation/simulator.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_association_metrics {
 
 constexpr Decision P = Decision::kPaired, N = Decision::kNew, T = Decision::kTentative,
                    X = Decision::kRejected;
@@ -261,10 +261,5 @@ TEST(PoseMetrics, PerfectFilterSitsInTheBandAndAnOverconfidentOneDoesNot) {
   EXPECT_LT(monteCarlo(2.0).fractionInBand(), 0.05);
 }
 
-}  // namespace
+}  // namespace test_association_metrics
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -38,7 +38,7 @@ namespace vp = ekf_slam::victoria_park;
 using fault_bags::Faults;
 
 namespace ekf_slam {
-namespace {
+namespace test_bag_faults {
 
 const std::string kConfig = std::string(EKF_SLAM_SOURCE_DIR) + "/config/victoria_park.yaml";
 // Bounds of a run on a corrupted bag (the window is 2.3 MB).
@@ -324,10 +324,5 @@ TEST_F(BagFaults, OneStreamJumpingBackDoesNotResetTheMap) {
   expectCloseToClean(r, 8);
 }
 
-}  // namespace
+}  // namespace test_bag_faults
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

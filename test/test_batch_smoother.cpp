@@ -18,7 +18,7 @@
 #include "ekf_slam/core/smoothing/batch_smoother.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_batch_smoother {
 
 TEST(RelativePose, JacobiansMatchFiniteDifferences) {
   const Eigen::Vector3d a(1.0, -2.0, 0.7), b(3.5, 0.5, -2.9);
@@ -280,10 +280,5 @@ TEST(ScanReportMotion, IsTheOdometryBetweenScansInThePreviousFrame) {
   EXPECT_FALSE(pipeline.processObservations(2.0, {}).has_motion);  // a reset breaks the chain
 }
 
-}  // namespace
+}  // namespace test_batch_smoother
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -16,9 +16,9 @@
 #include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/evaluation/simulation/laser_scan_simulator.h"
 
-using namespace ekf_slam;
+namespace test_beacon_car_park {
 
-namespace {
+using namespace ekf_slam;
 
 struct CarParkRun {
   RunMetrics metrics;
@@ -64,8 +64,6 @@ void runCarPark(std::uint64_t seed, CarParkRun* run) {
   }
   run->map_error_rms = mapped.empty() ? 0.0 : std::sqrt(sum / mapped.size());
 }
-
-}  // namespace
 
 TEST(BeaconCarPark, TwentySeeds) {
   double worst_map = 0.0, worst_rmse = 0.0, worst_accuracy = 1.0;
@@ -147,7 +145,4 @@ TEST(LaserScanSimulator, BeaconIsBrightCarIsDull) {
   EXPECT_EQ(beacons.detect(s).size(), 1u);
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}
+}  // namespace test_beacon_car_park

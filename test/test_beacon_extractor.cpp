@@ -8,11 +8,11 @@
 #include "beacon_scans.h"
 #include "ekf_slam/core/feature_extraction/beacon_extractor.h"
 
+namespace test_beacon_extractor {
+
 using namespace ekf_slam;
 using Params = std::map<std::string, std::string>;
 using beacon_scans::scanOf;
-
-namespace {
 
 constexpr double kIncrement = M_PI / 360.0;  // 0.5 deg, 361 beams over 180 deg
 
@@ -21,8 +21,6 @@ BeaconExtractorParams withRadius(double r) {
   p.beacon_radius = r;
   return p;
 }
-
-}  // namespace
 
 TEST(BeaconExtractor, OneBeaconCentreBehindTheSurface) {
   const double radius = 0.1;
@@ -148,7 +146,4 @@ TEST(BeaconExtractor, ConfigureValidates) {
   EXPECT_DOUBLE_EQ(e.params().intensity_threshold, 2000.0);
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}
+}  // namespace test_beacon_extractor

@@ -22,7 +22,7 @@
 #include "test_files.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_calibrate_noise {
 
 struct TrueNoiseBag {
   explicit TrueNoiseBag(const std::string& world, std::uint64_t seed) {
@@ -199,10 +199,5 @@ TEST(CalibrateNoise, RefusesBadArguments) {
   EXPECT_EQ(o.max_runs, 2);
 }
 
-}  // namespace
+}  // namespace test_calibrate_noise
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

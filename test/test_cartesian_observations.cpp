@@ -18,7 +18,7 @@
 #include "ekf_slam/core/association/rrwsc.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_cartesian_observations {
 
 using assoc_test::Scene;
 
@@ -127,10 +127,5 @@ TEST(CartesianObservations, EkfUpdateAndInitialisation) {
   EXPECT_TRUE(b.mean().allFinite());
 }
 
-}  // namespace
+}  // namespace test_cartesian_observations
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

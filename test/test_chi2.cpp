@@ -7,7 +7,7 @@
 #include "ekf_slam/core/common/chi2.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_chi2 {
 
 TEST(Chi2, QuantileMatchesTables) {
   // Standard tables (4 decimals).
@@ -59,10 +59,5 @@ TEST(Chi2, TableExtendsLazily) {
   EXPECT_THROW(chi2Quantile(0.5, 0), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace test_chi2
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

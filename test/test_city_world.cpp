@@ -8,7 +8,7 @@
 #include "ekf_slam/evaluation/simulation/simulator.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_city_world {
 
 TEST(CityWorld, TenToTwentyThousandLandmarksAndAnHourOfDriving) {
   const sim::World w = sim::makeWorld("city");
@@ -49,10 +49,5 @@ TEST(CityWorld, StreetsAreLinedWithLandmarksInView) {
   EXPECT_LT(seen / sets, 30u);
 }
 
-}  // namespace
+}  // namespace test_city_world
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

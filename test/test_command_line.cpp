@@ -7,7 +7,7 @@
 #include "ekf_slam/app/command_line.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_command_line {
 
 // Parses --bag VALUE, --runs VALUE and --quiet the way the programs do; returns the error.
 std::string parse(const std::vector<std::string>& args, std::string* bag, std::string* runs,
@@ -67,10 +67,5 @@ TEST(CommandLine, HelpStopsReading) {
   EXPECT_TRUE(help);
 }
 
-}  // namespace
+}  // namespace test_command_line
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

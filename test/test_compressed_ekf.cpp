@@ -13,7 +13,7 @@
 #include "ekf_slam/evaluation/simulated_run.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_compressed_ekf {
 
 constexpr double kTolerance = 1e-8;
 
@@ -198,10 +198,5 @@ TEST(CompressedEkf, ParametersValidated) {
   EXPECT_EQ(c.cekf_area_slack, 0.0);
 }
 
-}  // namespace
+}  // namespace test_compressed_ekf
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -9,9 +9,9 @@
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/ros/conversions.h"
 
-using namespace ekf_slam;
+namespace test_conversions {
 
-namespace {
+using namespace ekf_slam;
 
 geometry_msgs::Pose poseWithQuaternion(double x, double y, double z, double w) {
   geometry_msgs::Pose p;
@@ -24,8 +24,6 @@ geometry_msgs::Pose poseWithQuaternion(double x, double y, double z, double w) {
   p.orientation.w = w;
   return p;
 }
-
-}  // namespace
 
 TEST(Conversions, YawFromQuaternion) {
   for (double yaw : {0.0, 0.3, -1.2, 2.9, -3.1, M_PI / 2}) {
@@ -276,7 +274,4 @@ TEST(Conversions, LandmarkArrayFromPipeline) {
   EXPECT_EQ(stats.landmarks, 2u);
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}
+}  // namespace test_conversions

@@ -8,7 +8,7 @@
 #include "ekf_slam/core/common/coverage_grid.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_coverage_grid {
 
 // A downward camera's trapezoid 0.8..4.5 m ahead (the fiducials world's).
 SensorModel trapezoid() {
@@ -84,10 +84,5 @@ TEST(CoverageGrid, ExpectationOverAGaussian) {
   EXPECT_THROW(CoverageGrid(0.0), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace test_coverage_grid
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -13,7 +13,7 @@
 #include "ekf_slam/tools/evaluate.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_default_relocaliser {
 
 // Everything a scan leaves, as text with every bit of the doubles.
 std::string exact(double v) {
@@ -99,10 +99,5 @@ INSTANTIATE_TEST_SUITE_P(Worlds, DefaultRelocaliser,
                                          Case{"rrw_noise_5", "ekf_slam/RRWSC", "ekf_slam/RRWSC"},
                                          Case{"fiducials", "ekf_slam/DJNN", ""}));
 
-}  // namespace
+}  // namespace test_default_relocaliser
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -16,7 +16,7 @@
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_delayed_sightings {
 
 // Decisions from a function of the scan number and the context.
 class ScriptedAssociator : public DataAssociation {
@@ -310,10 +310,5 @@ TEST(DelayedSightings, AdmissionVelocityGateIsSetForPowerAgainstMovers) {
   EXPECT_EQ(admittedAt(djnnDecisions({}, post)), 6);
 }
 
-}  // namespace
+}  // namespace test_delayed_sightings
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

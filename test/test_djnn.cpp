@@ -18,7 +18,7 @@
 #include "ekf_slam/core/common/chi2.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_djnn {
 
 using assoc_test::diag2;
 using assoc_test::makeDjnn;
@@ -808,10 +808,5 @@ TEST(DJNN, ResetForgetsState) {
   EXPECT_EQ(d.associate(s.context()).decision[0], Decision::kTentative);  // not admitted
 }
 
-}  // namespace
+}  // namespace test_djnn
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

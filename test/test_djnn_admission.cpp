@@ -16,7 +16,7 @@
 #include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_djnn_admission {
 
 using assoc_test::makeDjnn;
 using assoc_test::Scene;
@@ -241,10 +241,5 @@ TEST(DJNNAdmission, LearningMoverSpeedWaitsForAMover) {
   EXPECT_THROW(makeDjnn({{"mover_speed_samples", "0"}}), ParameterError);
 }
 
-}  // namespace
+}  // namespace test_djnn_admission
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

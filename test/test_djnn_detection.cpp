@@ -13,7 +13,7 @@
 #include "ekf_slam/core/association/djnn/djnn.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_djnn_detection {
 
 using assoc_test::makeDjnn;
 using assoc_test::Scene;
@@ -277,10 +277,5 @@ TEST(DJNNDetection, LandmarkDensityIsEstimatedFromTheMappedLandmarksInView) {
   EXPECT_EQ(paper.landmarkDensity(), 0.0);
 }
 
-}  // namespace
+}  // namespace test_djnn_detection
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

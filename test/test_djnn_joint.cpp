@@ -19,7 +19,7 @@
 #include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_djnn_joint {
 
 using assoc_test::makeDjnn;
 using assoc_test::Scene;
@@ -339,10 +339,5 @@ TEST(DJNNJoint, OffByDefaultAndValidated) {
   EXPECT_NO_THROW(makeDjnn(kJoint));
 }
 
-}  // namespace
+}  // namespace test_djnn_joint
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

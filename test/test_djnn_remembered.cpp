@@ -16,7 +16,7 @@
 #include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_djnn_remembered {
 
 using assoc_test::makeDjnn;
 using assoc_test::Scene;
@@ -188,10 +188,5 @@ TEST(DJNNRemembered, OffByDefaultAndValidated) {
   EXPECT_THROW(makeDjnn({{"remembered_sightings", "-1"}}), ParameterError);
 }
 
-}  // namespace
+}  // namespace test_djnn_remembered
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

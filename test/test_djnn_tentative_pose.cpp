@@ -16,7 +16,7 @@
 #include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_djnn_tentative_pose {
 
 using assoc_test::makeDjnn;
 using assoc_test::Scene;
@@ -152,10 +152,5 @@ TEST(DJNNTentativePose, DefaultsOffAndFlagsValidated) {
   EXPECT_THROW(makeDjnn({{"static_heading", "2"}}), ParameterError);
 }
 
-}  // namespace
+}  // namespace test_djnn_tentative_pose
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -30,7 +30,7 @@ namespace fs = std::filesystem;
 namespace vp = ekf_slam::victoria_park;
 
 namespace ekf_slam {
-namespace {
+namespace test_ekf_reference {
 
 const std::string kConfig = std::string(EKF_SLAM_SOURCE_DIR) + "/config/victoria_park.yaml";
 const std::string kReference = std::string(EKF_SLAM_TEST_DATA) + "/ekf_reference_vp.txt";
@@ -176,10 +176,5 @@ TEST_F(EkfReferenceTest, EveryAssociatorMatchesTheStoredTrajectoryAndMap) {
   }
 }
 
-}  // namespace
+}  // namespace test_ekf_reference
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

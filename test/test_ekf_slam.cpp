@@ -18,7 +18,7 @@
 #include "ekf_slam/core/filter/observation_model.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_ekf_slam {
 
 bool bitwiseEqual(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return a.rows() == b.rows() && a.cols() == b.cols() &&
@@ -610,10 +610,5 @@ TEST(EkfSlam, RandomSequenceKeepsCovarianceSymmetricPsd) {
   }
 }
 
-}  // namespace
+}  // namespace test_ekf_slam
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -36,7 +36,7 @@ extern "C" void* malloc(std::size_t size) {
 #endif
 
 namespace ekf_slam {
-namespace {
+namespace test_ekf_storage {
 
 // A filter with n landmarks on a ring around the pose, each observed once.
 EkfSlam ringFilter(int n, const RangeBearingModel& model) {
@@ -188,10 +188,5 @@ TEST(EkfStorage, VehicleRowsAndLandmarkBlocksStayCurrentAfterAnUpdate) {
   }
 }
 
-}  // namespace
+}  // namespace test_ekf_storage
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

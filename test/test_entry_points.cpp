@@ -20,15 +20,15 @@
 #include <nlohmann/json.hpp>
 
 #include "ekf_slam/ros/conversions.h"
-#include "ekf_slam/tools/evaluate.h"
 #include "ekf_slam/ros/offline/offline_runner.h"
 #include "ekf_slam/ros/plugin_loader.h"
+#include "ekf_slam/tools/evaluate.h"
 #include "ekf_slam/tools/simulation_bag.h"
 #include "offline_test_options.h"
 #include "test_files.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_entry_points {
 
 using test_files::TempDir;
 
@@ -259,10 +259,5 @@ TEST_P(OfflineAgainstEvaluate, SameDecisionsSameMapSameScores) {
 // The two worlds whose DJNN moves its tentative features with the pose (tentative_follow_pose).
 INSTANTIATE_TEST_SUITE_P(Worlds, OfflineAgainstEvaluate, testing::Values("arena", "fiducials"));
 
-}  // namespace
+}  // namespace test_entry_points
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -20,7 +20,7 @@
 #include "test_files.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_evaluate {
 
 namespace fs = std::filesystem;
 using test_files::readFile;
@@ -258,10 +258,5 @@ TEST(Evaluate, CommandLine) {
   EXPECT_TRUE(WIFEXITED(rc) && WEXITSTATUS(rc) == 2);
 }
 
-}  // namespace
+}  // namespace test_evaluate
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -11,7 +11,7 @@
 #include "test_files.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_evaluate_beacons {
 
 using test_files::readFile;
 using test_files::TempDir;
@@ -67,10 +67,5 @@ TEST(EvaluateBeacons, TrueAssociationsFromTheExtractedFeatures) {
   EXPECT_EQ(m.map.duplicates, 0u);
 }
 
-}  // namespace
+}  // namespace test_evaluate_beacons
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -7,10 +7,12 @@
 #include <string>
 
 #include "ekf_slam/app/pipeline_builder.h"
+#include "ekf_slam/app/yaml_configuration.h"
 #include "ekf_slam/core/feature_extraction/beacon_extractor.h"
 #include "ekf_slam/core/feature_extraction/tree_feature_extractor.h"
 #include "ekf_slam/ros/plugin_loader.h"
-#include "ekf_slam/app/yaml_configuration.h"
+
+namespace test_extractor_plugins {
 
 using namespace ekf_slam;
 
@@ -65,7 +67,4 @@ TEST(ExtractorPlugins, BeaconExtractorReadsItsSectionOnly) {
   EXPECT_THROW(buildPipeline(c, PluginlibFactory()), ParameterError);
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}
+}  // namespace test_extractor_plugins

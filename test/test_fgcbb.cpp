@@ -13,7 +13,7 @@
 #include "relocalisation_fixtures.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_fgcbb {
 
 using reloc_test::World;
 
@@ -446,10 +446,5 @@ TEST(FGCBB, DefaultsAreThePapers) {
   EXPECT_FALSE(g.params().use_locality);
 }
 
-}  // namespace
+}  // namespace test_fgcbb
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

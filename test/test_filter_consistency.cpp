@@ -12,7 +12,7 @@
 #include "ekf_slam/evaluation/simulated_run.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_filter_consistency {
 
 constexpr int kRuns = 5;
 constexpr std::size_t kSkipScans = 5;  // the first second: rank-deficient early covariances
@@ -120,10 +120,5 @@ TEST(FilterConsistency, RrwWithFirstEstimateJacobiansIsInsideTheBand) {
                                 << "]";
 }
 
-}  // namespace
+}  // namespace test_filter_consistency
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -21,7 +21,7 @@
 #include "ekf_slam/core/pipeline/pipeline_config.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_first_estimate_jacobians {
 
 constexpr double kStep = 1e-6;  // central differences: error ~1e-12 relative
 
@@ -205,10 +205,5 @@ TEST(FirstEstimateJacobians, ParameterValidated) {
                ParameterError);
 }
 
-}  // namespace
+}  // namespace test_first_estimate_jacobians
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

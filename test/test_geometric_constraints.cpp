@@ -11,7 +11,7 @@
 #include "relocalisation_fixtures.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_geometric_constraints {
 
 using reloc_test::World;
 
@@ -148,10 +148,5 @@ TEST(FitPose, NeedsTwoPairings) {
   EXPECT_FALSE(fitPose({{&p, &w.map[0]}}).ok);
 }
 
-}  // namespace
+}  // namespace test_geometric_constraints
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -8,7 +8,7 @@
 #include "ekf_slam/ros/gps_track.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_gps_track {
 
 using visualization_msgs::Marker;
 
@@ -75,10 +75,5 @@ TEST(GpsTrack, AlignmentMapsGpsIntoTheMapFrame) {
   EXPECT_NEAR((GpsAlignment().toMap(gps) - gps).norm(), 0.0, 0.0);
 }
 
-}  // namespace
+}  // namespace test_gps_track
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -13,7 +13,7 @@
 #include "ekf_slam/core/association/nn.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_hungarian {
 
 using assoc_test::Scene;
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -176,10 +176,5 @@ TEST(Hungarian, MatchesBruteForceOnRandomScenes) {
 
 TEST(Hungarian, ClutterEmptyMapEmptyScanBehind) { assoc_test::expectEdgeCases(runHungarian); }
 
-}  // namespace
+}  // namespace test_hungarian
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -6,11 +6,11 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/pipeline/input_sequencer.h"
 #include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/pipeline/input_sequencer.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_input_sequencer {
 
 using Seq = InputSequencer<std::string>;
 
@@ -280,10 +280,5 @@ TEST(InputSequencer, ReleasesEveryItemExactlyOnceInOrderForJitteredInput) {
   EXPECT_EQ(scans, static_cast<int>(scan_stamps.size()));
 }
 
-}  // namespace
+}  // namespace test_input_sequencer
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

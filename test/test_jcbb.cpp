@@ -16,7 +16,7 @@
 #include "ekf_slam/core/common/chi2.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_jcbb {
 
 using assoc_test::Scene;
 using Pairs = std::vector<std::pair<int, int>>;
@@ -320,10 +320,5 @@ TEST(JCBB, NodeBudgetFallsBackToBestSoFar) {
   EXPECT_EQ(tiny.budgetExhaustions(), 0u);
 }
 
-}  // namespace
+}  // namespace test_jcbb
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

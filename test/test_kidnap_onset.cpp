@@ -9,7 +9,7 @@
 #include "ekf_slam/core/pipeline/kidnap_onset.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_kidnap_onset {
 
 const RangeBearingModel kModel;
 constexpr int kScans = 60;
@@ -142,10 +142,5 @@ TEST(TrackedHistory, KeepsTheWindowAndAStateEverySpacingScans) {
   EXPECT_EQ(h.snapshotAtOrBefore(149), nullptr);
 }
 
-}  // namespace
+}  // namespace test_kidnap_onset
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

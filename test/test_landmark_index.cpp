@@ -9,7 +9,7 @@
 #include "ekf_slam/core/filter/landmark_index.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_landmark_index {
 
 EkfSlam makeMap(const std::vector<Eigen::Vector2d>& points) {
   const int n = static_cast<int>(points.size());
@@ -148,10 +148,5 @@ TEST(LandmarkIndex, RejectsBadCellSize) {
   EXPECT_THROW(LandmarkIndex(-1.0), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace test_landmark_index
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

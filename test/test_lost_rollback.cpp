@@ -14,7 +14,7 @@
 #include "lost_scene.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_lost_rollback {
 
 using lost_scene::kLandmarks;
 using lost_scene::Scene;
@@ -101,10 +101,5 @@ TEST(LostRollback, ARunThatNeverGoesLostIsTheRunWithoutIt) {
   EXPECT_TRUE(cov[0] == cov[1]);
 }
 
-}  // namespace
+}  // namespace test_lost_rollback
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -15,7 +15,7 @@
 #include "ekf_slam/core/pipeline/lost_scans.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_lost_scans {
 
 const RangeBearingModel kModel;
 const Eigen::Matrix2d kR = Eigen::Vector2d(0.05 * 0.05, 0.01 * 0.01).asDiagonal();
@@ -220,10 +220,5 @@ TEST(LostScans, DroppingTheNewestKeepsTheOdometryToNow) {
   EXPECT_NEAR(lost.scans()[0].Q(0, 0), 0.1, 1e-12);
 }
 
-}  // namespace
+}  // namespace test_lost_scans
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -11,7 +11,7 @@
 #include "ekf_slam/core/filter/motion_models.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_motion_models {
 
 constexpr double kStep = 1e-6;
 constexpr double kTol = 1e-7;
@@ -306,10 +306,5 @@ TEST(PoseDeltaModel, ProcessNoise) {
   EXPECT_TRUE(model.step(Eigen::Vector3d(1, 1, 1), Eigen::Vector3d::Zero()).Q.isApprox(p.additive));
 }
 
-}  // namespace
+}  // namespace test_motion_models
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -9,7 +9,7 @@
 #include "ekf_slam/core/common/chi2.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_nn {
 
 using assoc_test::Scene;
 
@@ -193,10 +193,5 @@ TEST(NN, AgreesWithTheHelperOnRandomScenes) {
   }
 }
 
-}  // namespace
+}  // namespace test_nn
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -13,7 +13,7 @@
 #include "ekf_slam/core/common/chi2.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_nnjcbb {
 
 using assoc_test::Scene;
 
@@ -172,10 +172,5 @@ TEST(NNJCBB, NeverPairsALandmarkTwiceOnRandomScenes) {
   EXPECT_GT(ran, 10);
 }
 
-}  // namespace
+}  // namespace test_nnjcbb
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

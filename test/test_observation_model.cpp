@@ -12,7 +12,7 @@
 #include "ekf_slam/core/filter/observation_model.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_observation_model {
 
 constexpr double kStep = 1e-6;
 constexpr double kTol = 1e-7;
@@ -340,10 +340,5 @@ TEST(SecondOrderTerms, PolarMatchesSampledMoments) {
   EXPECT_GT(u.dot(extra * u), 10.0 * C(0, 0));
 }
 
-}  // namespace
+}  // namespace test_observation_model
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -17,7 +17,7 @@
 #include "ekf_slam/evaluation/simulated_run.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_odometry_correction {
 
 const std::vector<std::string> kModes = {"speed_scale", "speed_scale_yaw_bias", "wheel_factors"};
 
@@ -385,10 +385,5 @@ TEST(OdometryCorrection, LandmarkAccessorsSkipTheCorrectionStates) {
   EXPECT_TRUE(ekf.correction().isApprox(Eigen::Vector2d(1.0, 1.0)));
 }
 
-}  // namespace
+}  // namespace test_odometry_correction
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -18,7 +18,7 @@
 #include "simulated_bag.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_offline_recovery {
 
 using test_files::SimulatedBag;
 
@@ -187,10 +187,5 @@ TEST(OfflineRecovery, ParsesTheRecoveryArguments) {
   }
 }
 
-}  // namespace
+}  // namespace test_offline_recovery
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -18,12 +18,12 @@
 #include <array>
 #include <nlohmann/json.hpp>
 
+#include "ekf_slam/app/association_problem.h"
+#include "ekf_slam/app/yaml_parameter_source.h"
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/offline/offline_runner.h"
 #include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/ros/victoria_park_bag.h"
-#include "ekf_slam/app/association_problem.h"
-#include "ekf_slam/app/yaml_parameter_source.h"
 #include "offline_test_options.h"
 #include "test_files.h"
 
@@ -31,7 +31,7 @@ namespace fs = std::filesystem;
 namespace vp = ekf_slam::victoria_park;
 
 namespace ekf_slam {
-namespace {
+namespace test_offline_runner {
 
 const std::string kConfig = std::string(EKF_SLAM_SOURCE_DIR) + "/config/victoria_park.yaml";
 
@@ -504,10 +504,5 @@ TEST(YamlParameterSource, SectionOnlyScopeIgnoresTheTopLevel) {
   EXPECT_TRUE(YamlParameterSource::fromString(text, "DJNN").get("individual_probability", &v));
 }
 
-}  // namespace
+}  // namespace test_offline_runner
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -17,7 +17,7 @@
 #include "simulated_bag.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_offline_smoothing {
 
 using test_files::positions;
 using test_files::SimulatedBag;
@@ -130,10 +130,5 @@ TEST(OfflineSmoothing, OptionAndItsErrors) {
   }
 }
 
-}  // namespace
+}  // namespace test_offline_smoothing
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

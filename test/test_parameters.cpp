@@ -14,7 +14,7 @@
 #include "ekf_slam/core/common/recording_parameter_source.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_parameters {
 
 // Expects `f` to throw a ParameterError whose message names `name`.
 template <typename F>
@@ -195,10 +195,5 @@ TEST(AssociatorParameters, BadValuesNamed) {
                    "jcbb_every_n_scans");
 }
 
-}  // namespace
+}  // namespace test_parameters
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

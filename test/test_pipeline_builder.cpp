@@ -17,7 +17,7 @@
 #include "ekf_slam/core/relocalisation/rrwsc_relocaliser.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_pipeline_builder {
 
 // The package's plugins constructed directly (what pluginlib does in the shells).
 class DirectFactory : public PluginFactory {
@@ -226,10 +226,5 @@ TEST(PipelineBuilder, DefaultsLieUnderTheFileAndOverridesOverIt) {
   EXPECT_THROW(buildPipeline(c, DirectFactory()), ParameterError);
 }
 
-}  // namespace
+}  // namespace test_pipeline_builder
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -9,7 +9,7 @@
 #include "ekf_slam/core/pipeline/pipeline_config.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_pipeline_config {
 
 TEST(PipelineConfig, DefaultsWhenNothingIsSet) {
   const PipelineConfig c = readPipelineConfig(MapParameterSource());
@@ -222,10 +222,5 @@ TEST(PipelineConfig, ValidateNamesTheField) {
   EXPECT_THROW(c.validate(), ParameterError);
 }
 
-}  // namespace
+}  // namespace test_pipeline_config
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

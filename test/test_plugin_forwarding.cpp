@@ -22,7 +22,7 @@
 #include "ekf_slam/core/relocalisation/relocaliser.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_plugin_forwarding {
 
 // The body of `class NAME ...{ ... };` in a header of the source tree.
 std::string classBody(const std::string& header, const std::string& name) {
@@ -217,10 +217,5 @@ TEST(PluginForwarding, ExtractorWrapperForwardsEveryHook) {
   EXPECT_EQ(inner->calls, (std::vector<std::string>{"configure", "checkScan 3", "extract 3"}));
 }
 
-}  // namespace
+}  // namespace test_plugin_forwarding
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

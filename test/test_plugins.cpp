@@ -15,7 +15,7 @@
 #include "ekf_slam/ros/plugin_loader.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_plugins {
 
 const std::vector<std::string> kNames = {"ekf_slam/DJNN", "ekf_slam/Hungarian", "ekf_slam/JCBB",
                                          "ekf_slam/NN",   "ekf_slam/NNJCBB",    "ekf_slam/RRWSC"};
@@ -245,10 +245,5 @@ TEST(YamlParameterSource, BadFilesAreReported) {
   EXPECT_FALSE(YamlParameterSource::fromString("").get("a", &d));
 }
 
-}  // namespace
+}  // namespace test_plugins
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

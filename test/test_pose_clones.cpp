@@ -14,7 +14,7 @@
 #include "ekf_slam/core/filter/observation_model.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_pose_clones {
 
 const RangeBearingModel kModel;
 
@@ -212,10 +212,5 @@ TEST(PoseClones, UnknownClonesAreRefused) {
   EXPECT_EQ(ekf.numClones(), 0u);
 }
 
-}  // namespace
+}  // namespace test_pose_clones
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -20,7 +20,7 @@
 #include "test_files.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_recovery {
 
 using reloc_test::World;
 
@@ -579,10 +579,5 @@ TEST(Recovery, KidnappedSimulatedWorldRecoversWithinTwoSeconds) {
   EXPECT_EQ(m.map.duplicates, 0u);
 }
 
-}  // namespace
+}  // namespace test_recovery
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -10,17 +10,17 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/common/pose2d.h"
-#include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "ekf_slam/core/filter/scan_window.h"
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
+#include "ekf_slam/core/relocalisation/fgcbb.h"
 #include "relocalisation_fixtures.h"
 #include "test_files.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_recovery_window {
 
 using reloc_test::World;
 
@@ -252,10 +252,5 @@ TEST(RecoveryWindow, ADisjointAgreeingWindowConfirms) {
   EXPECT_LT(d->error(), 0.5);
 }
 
-}  // namespace
+}  // namespace test_recovery_window
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

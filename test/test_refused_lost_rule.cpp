@@ -9,13 +9,13 @@
 #include <string>
 
 #include "ekf_slam/core/association/rrwsc.h"
-#include "ekf_slam/evaluation/simulated_run.h"
-#include "ekf_slam/core/relocalisation/rrwsc_relocaliser.h"
-#include "ekf_slam/evaluation/simulation/simulator.h"
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
+#include "ekf_slam/core/relocalisation/rrwsc_relocaliser.h"
+#include "ekf_slam/evaluation/simulated_run.h"
+#include "ekf_slam/evaluation/simulation/simulator.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_refused_lost_rule {
 
 // Seed 4: the filter is 0.23 m from the truth just before the kidnap. In seeds whose filter is
 // already more than 1 m off there (the EKF's own error in this world, true associations included:
@@ -119,10 +119,5 @@ TEST(RefusedLostRule, ParameterIsValidated) {
   EXPECT_THROW(config.validate(), ParameterError);
 }
 
-}  // namespace
+}  // namespace test_refused_lost_rule
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -16,7 +16,7 @@
 #include "ekf_slam/app/yaml_parameter_source.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_replay_association {
 
 const std::string kData = EKF_SLAM_TEST_DATA;
 
@@ -267,10 +267,5 @@ TEST(ReplayAssociationCommand, FailsClearly) {
   EXPECT_NE(out.find("usage"), std::string::npos) << out;
 }
 
-}  // namespace
+}  // namespace test_replay_association
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

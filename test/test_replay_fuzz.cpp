@@ -23,7 +23,7 @@
 #include "ekf_slam/app/yaml_parameter_source.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_replay_fuzz {
 
 using Json = nlohmann::json;
 const std::string kData = EKF_SLAM_TEST_DATA;
@@ -144,10 +144,5 @@ TEST(ReplayFuzz, MutatedProblemsGiveAnErrorOrAFiniteAnswer) {
   EXPECT_GT(replayed, 0);
 }
 
-}  // namespace
+}  // namespace test_replay_fuzz
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

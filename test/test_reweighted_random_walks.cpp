@@ -9,7 +9,7 @@
 #include "ekf_slam/core/graph_matching/reweighted_random_walks.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_reweighted_random_walks {
 
 // All rows x cols candidates of two point sets, node affinity `node(r, c)`, edge affinity from
 // the agreement of pairwise distances (sigma 0.5).
@@ -110,10 +110,5 @@ TEST(ReweightedRandomWalks, EmptyGraphGivesNoScores) {
   EXPECT_EQ(x.size(), 0);
 }
 
-}  // namespace
+}  // namespace test_reweighted_random_walks
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -15,7 +15,7 @@
 #include "rrwsc_fixtures.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_rrwsc {
 
 using assoc_test::Scene;
 
@@ -231,10 +231,5 @@ TEST(RRWSC, BadParametersNameTheParameter) {
   EXPECT_NEAR(rrwsc.gating().individual_probability, 0.999, 1e-12);
 }
 
-}  // namespace
+}  // namespace test_rrwsc
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -9,7 +9,7 @@
 #include "rrwsc_fixtures.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_rrwsc_matcher {
 
 // The scan as points in the sensor frame with covariances G R G^T.
 MatchInput inputOf(const rrwsc_test::Scan& scan, const std::vector<Eigen::Vector2d>& map,
@@ -115,10 +115,5 @@ TEST(RrwscMatcher, EmptyInputsGiveNoMatch) {
   EXPECT_EQ(match, (std::vector<int>{-1}));
 }
 
-}  // namespace
+}  // namespace test_rrwsc_matcher
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -12,7 +12,7 @@
 #include "rrwsc_fixtures.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_rrwsc_relocaliser {
 
 std::vector<MapLandmark> mapOf(const std::vector<Eigen::Vector2d>& points, double sigma) {
   std::vector<MapLandmark> map;
@@ -157,10 +157,5 @@ TEST(RRWSCRelocaliser, BadParametersNameTheParameter) {
   EXPECT_EQ(r.params().matching.position_weight, 0.0);
 }
 
-}  // namespace
+}  // namespace test_rrwsc_relocaliser
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

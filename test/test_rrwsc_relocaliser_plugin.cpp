@@ -10,7 +10,7 @@
 #include "rrwsc_fixtures.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_rrwsc_relocaliser_plugin {
 
 TEST(RelocalisationPlugins, RrwscLoadsByNameAndRelocalises) {
   pluginlib::ClassLoader<Relocaliser> loader("ekf_slam", "ekf_slam::Relocaliser");
@@ -38,10 +38,5 @@ TEST(RelocalisationPlugins, RrwscLoadsByNameAndRelocalises) {
   EXPECT_LT((r.pose - pose).norm(), 0.2);
 }
 
-}  // namespace
+}  // namespace test_rrwsc_relocaliser_plugin
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -5,12 +5,12 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/feature_extraction/scan_filter_chain.h"
 #include "ekf_slam/app/scan_filter_yaml.h"
+#include "ekf_slam/core/feature_extraction/scan_filter_chain.h"
+
+namespace test_scan_filter_chain {
 
 using namespace ekf_slam;
-
-namespace {
 
 // 5 beams at -90, -45, 0, 45, 90 deg, ranges 1..5, intensities 100, 200, ...
 LaserScanData fiveBeams() {
@@ -39,8 +39,6 @@ LaserScanData filtered(const ScanFilterSpec& sp, const Eigen::Vector3d& offset =
   ScanFilterChain::fromSpecs({sp}).apply(&s, offset);
   return s;
 }
-
-}  // namespace
 
 TEST(ScanFilterChain, RangeBounds) {
   const auto s = filtered(spec("laser_filters/LaserScanRangeFilter",
@@ -152,7 +150,4 @@ scan_filter_chain:
                ParameterError);
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}
+}  // namespace test_scan_filter_chain

@@ -7,7 +7,7 @@
 #include "ekf_slam/core/feature_extraction/scan_geometry.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_scan_geometry {
 
 constexpr double kInc = M_PI / 360;  // Victoria Park: 361 beams, -90..90 deg
 
@@ -39,10 +39,5 @@ TEST(ScanGeometry, InconsistentScansAreNamed) {
   EXPECT_TRUE(has(scanGeometryError(361, -100.0, 100.0, 200.0 / 360), "full turn"));
 }
 
-}  // namespace
+}  // namespace test_scan_geometry
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

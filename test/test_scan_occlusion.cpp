@@ -19,7 +19,7 @@
 #include "ekf_slam/core/feature_extraction/scan_occlusion.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_scan_occlusion {
 
 using assoc_test::makeDjnn;
 using assoc_test::Scene;
@@ -214,10 +214,5 @@ TEST(ScanOcclusion, DjnnGivesAFarThinPoleTheDetectionProbabilityOfItsBeams) {
   EXPECT_EQ(farPole({{"beam_spacing_misses", "false"}}, 0.05, false).admitted_at, -1);
 }
 
-}  // namespace
+}  // namespace test_scan_occlusion
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -8,7 +8,7 @@
 #include "ekf_slam/core/common/sensor_model.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_sensor_model {
 
 SensorModel read(const std::map<std::string, std::string>& p) {
   const MapParameterSource src(p);
@@ -99,10 +99,5 @@ TEST(SensorModel, ParametersAreValidatedAndNamed) {
   }
 }
 
-}  // namespace
+}  // namespace test_sensor_model
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -12,7 +12,7 @@
 #include "rrwsc_fixtures.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_shape_context {
 
 std::vector<Eigen::Vector2d> transformed(const std::vector<Eigen::Vector2d>& p, double angle,
                                          const Eigen::Vector2d& t) {
@@ -114,10 +114,5 @@ TEST(ShapeContext, SparseDistanceEqualsTheDenseOneOverTheShifts) {
   }
 }
 
-}  // namespace
+}  // namespace test_shape_context
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -18,7 +18,7 @@
 #include "lost_scene.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_share_lost_rule {
 
 using lost_scene::kLandmarks;
 
@@ -179,10 +179,5 @@ TEST(ShareLostRule, ParametersAreValidated) {
   EXPECT_THROW(config.validate(), ParameterError);
 }
 
-}  // namespace
+}  // namespace test_share_lost_rule
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

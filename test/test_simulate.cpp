@@ -34,11 +34,11 @@
 #include "offline_test_options.h"
 #include "test_files.h"
 
+namespace test_simulate {
+
 namespace fs = std::filesystem;
 using test_files::TempDir;
 using namespace ekf_slam;
-
-namespace {
 
 // What a Simulation of a world + seed emits, for comparison with the bag.
 struct Expected {
@@ -148,8 +148,6 @@ TempDir* SimulateTiny::dir_ = nullptr;
 SimulationBagOptions SimulateTiny::options_;
 SimulationBagSummary SimulateTiny::summary_;
 BagData* SimulateTiny::data_ = nullptr;
-
-}  // namespace
 
 TEST_F(SimulateTiny, CountsMatchTheSimulation) {
   const sim::World world = sim::makeWorld("tiny");
@@ -696,7 +694,4 @@ TEST(SimulateArguments, DefaultParamsPath) {
   EXPECT_EQ(defaultParamsPath(".bag"), ".bag.yaml");
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}
+}  // namespace test_simulate

@@ -13,15 +13,15 @@
 #include <string>
 
 #include "ekf_slam/core/association/djnn/djnn.h"
-#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/ros/offline/offline_runner.h"
 #include "ekf_slam/tools/simulation_bag.h"
 #include "offline_test_options.h"
 #include "test_files.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_simulate_beacons {
 
 using test_files::TempDir;
 
@@ -83,10 +83,5 @@ TEST(SimulateBeacons, ScanBagIsMappedAndScoredLikeEvaluate) {
   EXPECT_NEAR(t["pose_rmse_m"].get<double>(), m.pose_rmse_m, 0.01);
 }
 
-}  // namespace
+}  // namespace test_simulate_beacons
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

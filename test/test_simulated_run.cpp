@@ -17,7 +17,7 @@
 #include "ekf_slam/evaluation/simulated_run.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_simulated_run {
 
 std::shared_ptr<DataAssociation> makeDjnn(const sim::World& w) {
   auto djnn = std::make_shared<DJNN>();
@@ -340,10 +340,5 @@ TEST(RunSimulation, DjnnMapHasFewerSpuriousLandmarksThanNn) {
   EXPECT_LT(with_djnn.map.spurious, with_nn.map.spurious);
 }
 
-}  // namespace
+}  // namespace test_simulated_run
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -11,17 +11,17 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/data_association.h"
-#include "ekf_slam/evaluation/scoring/association_metrics.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/landmark_index.h"
+#include "ekf_slam/evaluation/scoring/association_metrics.h"
 #include "ekf_slam/evaluation/simulation/simulator.h"
 #include "ekf_slam/evaluation/simulation/simulator_sensor_worlds.h"
 
 namespace ekf_slam {
 namespace sim {
-namespace {
+namespace test_simulator {
 
 /// Everything a run produced, for comparisons.
 struct Recording {
@@ -447,11 +447,6 @@ TEST(Simulation, OdometryPoseIntegratesTheNoisyTwist) {
 
 // --- end to end through the core (what the pipeline will do) -------------------------------------
 
-}  // namespace
+}  // namespace test_simulator
 }  // namespace sim
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -11,13 +11,13 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/pipeline/pipeline_config.h"
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_slam_pipeline {
 
 // An associator whose decisions come from a function; records landmarkAdded() calls.
 class ScriptedAssociator : public DataAssociation {
@@ -760,10 +760,5 @@ TEST(SlamPipeline, RunsWithDJNN) {
   EXPECT_TRUE(stateFinite(p));
 }
 
-}  // namespace
+}  // namespace test_slam_pipeline
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

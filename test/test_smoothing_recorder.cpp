@@ -8,13 +8,13 @@
 #include <vector>
 
 #include "ekf_slam/core/association/djnn/djnn.h"
-#include "ekf_slam/evaluation/simulated_run.h"
-#include "ekf_slam/evaluation/scoring/trajectory_metrics.h"
 #include "ekf_slam/core/pipeline/pipeline_config.h"
 #include "ekf_slam/core/smoothing/smoothing_recorder.h"
+#include "ekf_slam/evaluation/scoring/trajectory_metrics.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_smoothing_recorder {
 
 TEST(SmoothingRecorder, SmoothsARunWithItsRemovedLandmarks) {
   const sim::World world = sim::makeWorld("djnn_strong");  // 50 movers: DJNN removes some
@@ -69,10 +69,5 @@ TEST(SmoothingRecorder, SmoothsARunWithItsRemovedLandmarks) {
   EXPECT_LT(after, 0.5 * online) << "online " << online;
 }
 
-}  // namespace
+}  // namespace test_smoothing_recorder
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

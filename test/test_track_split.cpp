@@ -10,7 +10,7 @@
 #include "ekf_slam/core/common/track_split.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_track_split {
 
 // 5 Hz fixes along x at 4 m/s (0.8 m per fix), from x0 at t0.
 void drive(std::vector<TrackFix>* fixes, double t0, double x0, int n) {
@@ -140,10 +140,5 @@ TEST(TrackSplit, InvalidOptionsAreRefused) {
   EXPECT_NO_THROW(validate(o));
 }
 
-}  // namespace
+}  // namespace test_track_split
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -8,7 +8,7 @@
 #include "ekf_slam/evaluation/scoring/trajectory_metrics.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_trajectory_metrics {
 
 // A figure-of-eight-ish path sampled at 5 Hz for 200 s (not symmetric, so the alignment is
 // unique).
@@ -235,10 +235,5 @@ TEST(FaultyGpsFixes, JumpsTheOdometryExplainsAreNot) {
   EXPECT_GT(count(faultyGpsFixes(circleDrive().gps, still, {3.0, 0.2, 1000})), 0u);
 }
 
-}  // namespace
+}  // namespace test_trajectory_metrics
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

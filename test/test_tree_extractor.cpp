@@ -16,7 +16,7 @@
 #include "test_files.h"
 
 namespace ekf_slam {
-namespace {
+namespace test_tree_extractor {
 
 constexpr int kBeams = 361;
 // As in a sensor_msgs/LaserScan of the converted bag (float32 fields).
@@ -342,10 +342,5 @@ TEST_F(VictoriaParkScans, WholeDataSet) {
   EXPECT_NEAR(diameter_sum, 24042.541732, 1e-5);
 }
 
-}  // namespace
+}  // namespace test_tree_extractor
 }  // namespace ekf_slam
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

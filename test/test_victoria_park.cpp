@@ -21,12 +21,12 @@
 #include "ekf_slam/ros/victoria_park_bag.h"
 #include "test_files.h"
 
+namespace test_victoria_park {
+
 namespace vp = ekf_slam::victoria_park;
 namespace fs = std::filesystem;
 
 using test_files::TempDir;
-
-namespace {
 
 constexpr double kL = 2.83;
 constexpr double kH = 0.76;
@@ -85,8 +85,6 @@ class WithData : public ::testing::Test {
   }
   std::string dir_;
 };
-
-}  // namespace
 
 // --------------------------------------------------------------------------------------------
 // Loading
@@ -468,7 +466,4 @@ TEST_F(WithData, FullConversionCounts) {
   EXPECT_DOUBLE_EQ(all.getEndTime().toSec(), 1570.540);
 }
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}
+}  // namespace test_victoria_park

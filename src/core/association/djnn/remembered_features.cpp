@@ -30,11 +30,15 @@ void RememberedFeatures::anchor(const AssociationContext& ctx, const LocalScan& 
   if (!on()) return;
   double best = kInf;
   t->anchor = kNoLandmark;
-  const Eigen::Matrix3d P = ctx.ekf().poseCovariance();
-  const Eigen::Vector2d lever = t->position - scan.sensor_pose.head<2>();
-  const Eigen::Vector2d perp_lever(-lever.y(), lever.x());
-  t->pose_cov =
-      P.topLeftCorner<2, 2>() + std::max(0.0, P(2, 2)) * perp_lever * perp_lever.transpose();
+  // Left without an anchor, it may be anchored at its timeout (timedOut) with the pose's
+  // uncertainty at this sighting.
+  const auto keepPoseCovariance = [&] {
+    const Eigen::Matrix3d P = ctx.ekf().poseCovariance();
+    const Eigen::Vector2d lever = t->position - scan.sensor_pose.head<2>();
+    const Eigen::Vector2d perp_lever(-lever.y(), lever.x());
+    t->pose_cov =
+        P.topLeftCorner<2, 2>() + std::max(0.0, P(2, 2)) * perp_lever * perp_lever.transpose();
+  };
   for (int j : scan.cand) {
     // Only a landmark paired recently moves with the pose the feature was placed from; an old one
     // (at a loop closure) is off by the whole pose error.
@@ -45,7 +49,10 @@ void RememberedFeatures::anchor(const AssociationContext& ctx, const LocalScan& 
     t->anchor = ctx.landmarkId(j);
     t->anchor_offset = off;
   }
-  if (t->anchor == kNoLandmark) return;
+  if (t->anchor == kNoLandmark) {
+    keepPoseCovariance();
+    return;
+  }
   // The feature's fused observation noise, as much again for the anchor's estimate relative to
   // the pose it was seen from, and the offset turned by the heading's uncertainty.
   const Eigen::Vector2d perp(-t->anchor_offset.y(), t->anchor_offset.x());
@@ -55,6 +62,7 @@ void RememberedFeatures::anchor(const AssociationContext& ctx, const LocalScan& 
   // feature of its own.
   if (t->anchor_offset.dot(t->anchor_cov.inverse() * t->anchor_offset) <= tentative_gate) {
     t->anchor = kNoLandmark;
+    keepPoseCovariance();
   }
 }
 

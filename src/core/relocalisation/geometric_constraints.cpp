@@ -7,6 +7,7 @@
 #include <optional>
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 
 #include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/common/decompositions.h"

@@ -24,14 +24,15 @@ endif()
 # ekf_slam_tests(NAME FILES file... LIBS lib... [PROGRAMS target...]): the test executable NAME
 # from test/<file>.cpp, compiled as one unit (CMake's unity build, 8 files at most per unit): the
 # files of a theme instantiate the same fixtures and GoogleTest code, which one unit compiles once
-# (the six DJNN files: 11 s against 37 s; docs/benchmarks.md, "CI time"). Each program is built
-# first and its path is the macro <TARGET>_BIN (EKF_SLAM_NODE_BIN for the node).
+# (the six DJNN files: 11 s against 37 s; docs/benchmarks.md, "CI time"). With EKF_SLAM_PCH OFF,
+# the build that checks that every file includes what it uses, each file compiles alone. Each
+# program is built first and its path is the macro <TARGET>_BIN (EKF_SLAM_NODE_BIN for the node).
 function(ekf_slam_tests name)
   cmake_parse_arguments(T "" "" "FILES;LIBS;PROGRAMS" ${ARGN})
   list(TRANSFORM T_FILES REPLACE "(.+)" "test/\\1.cpp")
   catkin_add_gtest(${name} ${T_FILES})
   target_link_libraries(${name} GTest::gtest_main ${T_LIBS})
-  set_target_properties(${name} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 8)
+  set_target_properties(${name} PROPERTIES UNITY_BUILD ${EKF_SLAM_PCH} UNITY_BUILD_BATCH_SIZE 8)
   _ekf_slam_test_setup(${name} "${T_PROGRAMS}")
 endfunction()
 

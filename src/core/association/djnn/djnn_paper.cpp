@@ -555,8 +555,8 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     result->decision[i] = rules->decide(ctx, i, slot, t, t >= p_.admit_evidence - kEvidenceEps);
     result->feature[i] = tentatives_[slot].key;
     if (result->decision[i] == Decision::kNew) {
-      dropFeature(ctx, slot, false,
-                  rules);  // now the pipeline's landmark; its T in landmarkAdded()
+      // Now the pipeline's landmark; its T in landmarkAdded().
+      dropFeature(ctx, slot, false, rules);
       ++stats->admitted;
     }
   }

@@ -30,15 +30,6 @@ void RememberedFeatures::anchor(const AssociationContext& ctx, const LocalScan& 
   if (!on()) return;
   double best = kInf;
   t->anchor = kNoLandmark;
-  // Left without an anchor, it may be anchored at its timeout (timedOut) with the pose's
-  // uncertainty at this sighting.
-  const auto keepPoseCovariance = [&] {
-    const Eigen::Matrix3d P = ctx.ekf().poseCovariance();
-    const Eigen::Vector2d lever = t->position - scan.sensor_pose.head<2>();
-    const Eigen::Vector2d perp_lever(-lever.y(), lever.x());
-    t->pose_cov =
-        P.topLeftCorner<2, 2>() + std::max(0.0, P(2, 2)) * perp_lever * perp_lever.transpose();
-  };
   for (int j : scan.cand) {
     // Only a landmark paired recently moves with the pose the feature was placed from; an old one
     // (at a loop closure) is off by the whole pose error.
@@ -49,20 +40,25 @@ void RememberedFeatures::anchor(const AssociationContext& ctx, const LocalScan& 
     t->anchor = ctx.landmarkId(j);
     t->anchor_offset = off;
   }
-  if (t->anchor == kNoLandmark) {
-    keepPoseCovariance();
-    return;
+  const Eigen::Matrix3d P = ctx.ekf().poseCovariance();
+  if (t->anchor != kNoLandmark) {
+    // The feature's fused observation noise, as much again for the anchor's estimate relative to
+    // the pose it was seen from, and the offset turned by the heading's uncertainty.
+    const Eigen::Vector2d perp(-t->anchor_offset.y(), t->anchor_offset.x());
+    t->anchor_cov = 2.0 * t->cov + std::max(0.0, P(2, 2)) * perp * perp.transpose();
+    // Within its gate of the anchor it is that landmark seen again (a held observation): no
+    // feature of its own.
+    if (t->anchor_offset.dot(t->anchor_cov.inverse() * t->anchor_offset) <= tentative_gate) {
+      t->anchor = kNoLandmark;
+    }
   }
-  // The feature's fused observation noise, as much again for the anchor's estimate relative to
-  // the pose it was seen from, and the offset turned by the heading's uncertainty.
-  const Eigen::Vector2d perp(-t->anchor_offset.y(), t->anchor_offset.x());
-  t->anchor_cov =
-      2.0 * t->cov + std::max(0.0, ctx.ekf().poseCovariance()(2, 2)) * perp * perp.transpose();
-  // Within its gate of the anchor it is that landmark seen again (a held observation): no
-  // feature of its own.
-  if (t->anchor_offset.dot(t->anchor_cov.inverse() * t->anchor_offset) <= tentative_gate) {
-    t->anchor = kNoLandmark;
-    keepPoseCovariance();
+  if (t->anchor == kNoLandmark) {
+    // Left without an anchor, it may be anchored at its timeout (timedOut) with the pose's
+    // uncertainty at this sighting.
+    const Eigen::Vector2d lever = t->position - scan.sensor_pose.head<2>();
+    const Eigen::Vector2d perp_lever(-lever.y(), lever.x());
+    t->pose_cov =
+        P.topLeftCorner<2, 2>() + std::max(0.0, P(2, 2)) * perp_lever * perp_lever.transpose();
   }
 }
 

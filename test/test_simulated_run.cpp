@@ -4,8 +4,10 @@
 
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <unordered_map>
 #include <vector>
 
@@ -313,6 +315,35 @@ TEST(RunSimulation, TinyWorldWithDjnn) {
   EXPECT_GE(m.map.true_landmarks_mapped, 7u);
   EXPECT_LT(m.pose_rmse_m, 1.0);
   EXPECT_EQ(m.rejected_updates, 0u);
+}
+
+// "truth_delayed": the true pairings, each landmark admitted at its 7th sighting with the six
+// before it applied at admission (delayed sightings), so that the wait is all it costs.
+TEST(RunSimulation, TruthDelayedWaitsAndUsesEverySighting) {
+  const sim::World w = sim::makeWorld("tiny");
+  const PipelineConfig config = sim::pipelineConfigFor(w);
+  ASSERT_TRUE(config.delayed_sightings);
+  auto delayed = std::make_shared<KnownAssociation>(7, "truth_delayed");
+  delayed->configure(MapParameterSource());
+  EXPECT_EQ(delayed->name(), "truth_delayed");
+  const RunMetrics now = runSimulation(w, 1, config, std::make_shared<KnownAssociation>());
+  const RunMetrics wait = runSimulation(w, 1, config, delayed);
+  EXPECT_DOUBLE_EQ(wait.counts.accuracy(), 1.0);
+  EXPECT_EQ(wait.map.spurious, 0u);
+  // Six sightings per landmark are tentative, not pairings...
+  EXPECT_LE(wait.counts.tp + 6 * wait.map.true_landmarks_mapped, now.counts.tp);
+  // ... but the filter used them all.
+  EXPECT_GT(wait.map.sightings_used, 0.999);
+  EXPECT_LT(wait.map.pairing_coverage, wait.map.sightings_used - 0.01);
+
+  // The count is a parameter of its section; 1 is the plain truth.
+  auto at_once = std::make_shared<KnownAssociation>(7, "truth_delayed");
+  at_once->configure(
+      MapParameterSource(std::map<std::string, std::string>{{"admit_sightings", "1"}}));
+  EXPECT_EQ(runSimulation(w, 1, config, at_once).counts.tp, now.counts.tp);
+  EXPECT_THROW(at_once->configure(MapParameterSource(
+                   std::map<std::string, std::string>{{"admit_sightings", "0"}})),
+               ParameterError);
 }
 
 TEST(RunSimulation, SameSeedSameScores) {

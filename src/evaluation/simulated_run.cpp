@@ -42,6 +42,12 @@ OdometryInput odometryOnBag(const OdometrySample& sample) {
 
 // --- KnownAssociation ----------------------------------------------------------------------------
 
+void KnownAssociation::configure(const ParameterSource& params) {
+  admit_sightings_ =
+      ParameterReader(params).integer("admit_sightings", admit_sightings_, 1, 1000000);
+  reset();
+}
+
 AssociationResult KnownAssociation::associate(const AssociationContext& context) {
   if (truth_of_) truth_ = truth_of_(context.observations());
   AssociationResult r;
@@ -51,9 +57,13 @@ AssociationResult KnownAssociation::associate(const AssociationContext& context)
     const auto it = landmark_of_.find(truth_[i]);
     if (it != landmark_of_.end() && context.ekf().contains(it->second)) {
       r.pair(i, it->second);
-    } else {
-      r.decision[i] = Decision::kNew;
+      continue;
     }
+    // The truth id names the feature, so its sightings join the landmark it becomes.
+    r.feature[i] = truth_[i];
+    const bool admitted = admit_sightings_ <= 1 || ++sightings_[truth_[i]] >= admit_sightings_;
+    r.decision[i] = admitted ? Decision::kNew : Decision::kTentative;
+    if (admitted) sightings_.erase(truth_[i]);
   }
   return r;
 }

@@ -17,6 +17,7 @@
 #include "ekf_slam/app/command_line.h"
 #include "ekf_slam/app/output_files.h"
 #include "ekf_slam/app/pipeline_builder.h"
+#include "ekf_slam/core/association/djnn/djnn_paper.h"
 #include "ekf_slam/ros/plugin_loader.h"
 
 namespace ekf_slam {
@@ -34,14 +35,21 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
-// The package's plugins, and "truth": the true associations (KnownAssociation), not a plugin.
+// The package's plugins, and "truth" / "truth_delayed": the true associations
+// (KnownAssociation), not plugins.
 class EvaluationPlugins : public PluginlibFactory {
  public:
   std::shared_ptr<DataAssociation> associator(const std::string& lookup) const override {
     if (lookup == kTruthLookup) return std::make_shared<KnownAssociation>();
+    // The true associations with DJNN's admission wait (admit_evidence's default).
+    if (lookup == kTruthDelayedLookup) {
+      static const DjnnPaperParams djnn_defaults;
+      return std::make_shared<KnownAssociation>(djnn_defaults.admit_evidence, "truth_delayed");
+    }
     return PluginlibFactory::associator(lookup);
   }
   static constexpr const char* kTruthLookup = "ekf_slam/truth";
+  static constexpr const char* kTruthDelayedLookup = "ekf_slam/truth_delayed";
 };
 
 // --- statistics ----------------------------------------------------------------------------------
@@ -570,7 +578,10 @@ void printEvaluateUsage(std::ostream& out) {
          "  NAME       a world (simulate --list), or a prefix with '*' (e.g. 'rrw_noise_*')\n"
          "  --runs     Monte Carlo runs per world and associator (default 20)\n"
          "  --associators  plugin names (default ekf_slam/NN,ekf_slam/JCBB,ekf_slam/DJNN);\n"
-         "             'truth' = the true associations (isolates the filter)\n"
+         "             'truth' = the true associations (isolates the filter);\n"
+         "             'truth_delayed' = the same, each landmark admitted at its 7th sighting\n"
+         "             as DJNN admits it (isolates what the wait costs; the count:\n"
+         "             --set truth_delayed/admit_sightings=N)\n"
          "  --seed     seed of the first run (default: the world's default seed)\n"
          "  --params   YAML, pipeline parameters at the top level and each associator's under\n"
          "             its name; overrides the world's settings\n"

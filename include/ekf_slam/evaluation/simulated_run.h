@@ -60,10 +60,20 @@ OdometryInput odometryOnBag(const OdometrySample& sample);
 /// pipeline's extractor, a truth function finds them from the observations being associated.
 /// What isolates the filter from the association (e.g. the consistency of AEKF against EKF,
 /// docs/results.md); `evaluate --associators truth`.
+///
+/// "truth_delayed" (`evaluate --associators truth_delayed`): the same pairings, but a landmark
+/// enters the map only at its admit_sightings-th sighting (DJNN's admit_evidence, 7 by default),
+/// the earlier ones kept as tentative sightings and applied at admission as DJNN's are
+/// (core/pipeline/delayed_sightings.h). It isolates what the wait costs the estimate from what
+/// the association costs it.
 class KnownAssociation : public DataAssociation {
  public:
-  void configure(const ParameterSource&) override {}
-  std::string name() const override { return "truth"; }
+  /// admit_sightings 1: every landmark at its first sighting ("truth").
+  explicit KnownAssociation(int admit_sightings = 1, std::string name = "truth")
+      : admit_sightings_(admit_sightings), name_(std::move(name)) {}
+  /// Reads admit_sightings (its section: `--set truth_delayed/admit_sightings=N`).
+  void configure(const ParameterSource& params) override;
+  std::string name() const override { return name_; }
   void setTruth(std::vector<LandmarkId> truth) { truth_ = std::move(truth); }
   /// The truth of the observations being associated, computed when they are (laser worlds:
   /// truthByProximity from the true sensor pose); replaces setTruth's.
@@ -73,10 +83,16 @@ class KnownAssociation : public DataAssociation {
   void landmarkAdded(int obs, LandmarkId id) override;
   /// A loaded map's ids are taken as truth ids (bench_cekf's prior maps).
   void landmarkLoaded(LandmarkId id, std::uint32_t) override { landmark_of_[id] = id; }
-  void reset() override { landmark_of_.clear(); }
+  void reset() override {
+    landmark_of_.clear();
+    sightings_.clear();
+  }
 
  private:
-  std::vector<LandmarkId> truth_;  // of the observations being associated
+  int admit_sightings_;
+  std::string name_;
+  std::map<LandmarkId, int> sightings_;  // truth id -> sightings while not yet in the map
+  std::vector<LandmarkId> truth_;        // of the observations being associated
   TruthFunction truth_of_;
   std::map<LandmarkId, LandmarkId> landmark_of_;  // truth id -> map landmark id
 };

@@ -50,7 +50,8 @@ if [[ $ctest_rc -ne 0 && $failed -eq 0 ]]; then failed=1; fi  # a crashed binary
 # windows (scripts/saved_map_windows.sh), the behaviour identity (scripts/identity.sh) and
 # scripts/get_data.sh against a local file:// mirror made from it (test/get_data_test.sh);
 # the include rule of docs/architecture.md (scripts/check_layers.py); the docs' links
-# (scripts/check_links.py); catkin_lint --strict; rosdep
+# (scripts/check_links.py); the paired comparison's arithmetic (scripts/compare_runs.py
+# --self-test); catkin_lint --strict; rosdep
 # resolving
 # every key of package.xml.
 cd "$EKF_SLAM_ROOT"
@@ -92,6 +93,7 @@ fi
 check demo_simulation env DEMO=simulation "$EKF_SLAM_ROOT/scripts/demo.sh"
 check layers /usr/bin/python3 "$EKF_SLAM_ROOT/scripts/check_layers.py"
 check doc_links /usr/bin/python3 "$EKF_SLAM_ROOT/scripts/check_links.py"
+check compare_runs /usr/bin/python3 "$EKF_SLAM_ROOT/scripts/compare_runs.py" --self-test
 check catkin_lint "$EKF_SLAM_ROOT/scripts/lint.sh"
 check rosdep "$EKF_SLAM_ROOT/scripts/rosdep_check.sh"
 [[ -z ${lane:-} ]] || wait "$lane"

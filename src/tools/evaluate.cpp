@@ -579,7 +579,9 @@ void printEvaluateUsage(std::ostream& out) {
          "  --runs     Monte Carlo runs per world and associator (default 20)\n"
          "  --associators  plugin names (default ekf_slam/NN,ekf_slam/JCBB,ekf_slam/DJNN);\n"
          "             'truth' = the true associations (isolates the filter);\n"
-         "             'truth_delayed' = the same, each landmark admitted at its 7th sighting\n"
+         "             'truth_delayed' = the same, each landmark admitted once seen "
+      << DjnnPaperParams{}.admit_evidence
+      << " times\n"
          "             as DJNN admits it (isolates what the wait costs; the count:\n"
          "             --set truth_delayed/admit_sightings=N)\n"
          "  --seed     seed of the first run (default: the world's default seed)\n"

@@ -41,13 +41,12 @@ class EvaluationPlugins : public PluginlibFactory {
  public:
   std::shared_ptr<DataAssociation> associator(const std::string& lookup) const override {
     if (lookup == kTruthLookup) return std::make_shared<KnownAssociation>();
-    // The true associations with DJNN's admission wait (admit_evidence's default).
-    if (lookup == kTruthDelayedLookup) {
-      static const DjnnPaperParams djnn_defaults;
-      return std::make_shared<KnownAssociation>(djnn_defaults.admit_evidence, "truth_delayed");
-    }
+    if (lookup == kTruthDelayedLookup)
+      return std::make_shared<KnownAssociation>(truthDelayedSightings(), "truth_delayed");
     return PluginlibFactory::associator(lookup);
   }
+  /// The sightings truth_delayed waits for: DJNN's admission wait (admit_evidence's default).
+  static int truthDelayedSightings() { return DjnnPaperParams{}.admit_evidence; }
   static constexpr const char* kTruthLookup = "ekf_slam/truth";
   static constexpr const char* kTruthDelayedLookup = "ekf_slam/truth_delayed";
 };
@@ -580,7 +579,7 @@ void printEvaluateUsage(std::ostream& out) {
          "  --associators  plugin names (default ekf_slam/NN,ekf_slam/JCBB,ekf_slam/DJNN);\n"
          "             'truth' = the true associations (isolates the filter);\n"
          "             'truth_delayed' = the same, each landmark admitted once seen "
-      << DjnnPaperParams{}.admit_evidence
+      << EvaluationPlugins::truthDelayedSightings()
       << " times\n"
          "             as DJNN admits it (isolates what the wait costs; the count:\n"
          "             --set truth_delayed/admit_sightings=N)\n"

@@ -9,14 +9,17 @@
 namespace ekf_slam {
 namespace assoc_test {
 
-// The paper's settings (0.95 gates, admission when seen twice, no static / bias tests): the
-// hand-made problems of the tests are worked out for them. `params` override them.
+// The paper's settings (0.95 gates, admission when seen twice, no static / bias tests, no density
+// estimate or joint decision at loop closures): the hand-made problems of the tests are worked out
+// for them. `params` override them.
 inline DJNN makeDjnn(const std::map<std::string, std::string>& params = {}) {
   std::map<std::string, std::string> p = {{"individual_probability", "0.95"},
                                           {"ambiguity_probability", "0.95"},
                                           {"admit_evidence", "2"},
                                           {"static_test", "false"},
-                                          {"bias_test", "false"}};
+                                          {"bias_test", "false"},
+                                          {"estimate_landmark_density", "false"},
+                                          {"loop_closure_age", "0"}};
   for (const auto& kv : params) p[kv.first] = kv.second;
   DJNN d;
   d.configure(MapParameterSource(p));

@@ -615,6 +615,8 @@ TEST(DJNN, DefaultsAreTheDocumentedOnes) {
   EXPECT_EQ(d.params().bias.bias_probability, 0.999);
   EXPECT_EQ(d.params().bias.bias_window, 5.0);
   EXPECT_EQ(d.params().bias.bias_min_pairings, 3);
+  EXPECT_TRUE(d.params().density.estimate_landmark_density);
+  EXPECT_EQ(d.params().joint.loop_closure_age, 60.0);
   // The sensor model: the paper's half disc of 30 m, every landmark in it seen, no clutter.
   EXPECT_EQ(d.params().paper.sensor.max_range, 30.0);
   EXPECT_EQ(d.params().paper.sensor.min_range, 0.0);

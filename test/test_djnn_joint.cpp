@@ -324,9 +324,10 @@ TEST(DJNNJoint, ATrackedLandmarkIsPairedInAClosureScan) {
   EXPECT_EQ(d.stats().joint_held, 1u);
 }
 
-TEST(DJNNJoint, OffByDefaultAndValidated) {
+TEST(DJNNJoint, OnByDefaultAndValidated) {
   DJNN d;
-  EXPECT_EQ(d.params().joint.loop_closure_age, 0.0);
+  EXPECT_EQ(d.params().joint.loop_closure_age, 60.0);
+  EXPECT_EQ(makeDjnn().params().joint.loop_closure_age, 0.0);  // the paper's DJNN
   EXPECT_THROW(makeDjnn({{"loop_closure_age", "-1"}}), ParameterError);
   EXPECT_THROW(makeDjnn({{"loop_closure_age", "30"}}), ParameterError);  // no density
   EXPECT_THROW(makeDjnn({{"joint_margin", "-1"}}), ParameterError);

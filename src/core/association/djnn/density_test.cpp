@@ -12,6 +12,7 @@ void DensityTest::read(const ParameterReader& r) {
   const Params def;
   p_.landmark_density = r.nonNegative("landmark_density", def.landmark_density);
   p_.estimate_landmark_density = r.flag("estimate_landmark_density", def.estimate_landmark_density);
+  p_.density_test = r.flag("density_test", def.density_test || p_.landmark_density > 0.0);
 }
 
 void DensityTest::configure(const SensorModel& sensor) {

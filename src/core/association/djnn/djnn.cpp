@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include <Eigen/LU>
 
@@ -48,8 +49,17 @@ void DJNN::configure(const ParameterSource& user) {
   DensityTest density;
   density.read(r);
   JointDecision joint;
-  joint.read(r, density.params().landmark_density > 0.0 || density.estimating() ||
-                    paper.sensor.clutter_density > 0.0);
+  bool age_set = false;
+  try {
+    double age;
+    age_set = params.get("loop_closure_age", &age);
+  } catch (const std::invalid_argument&) {
+    age_set = true;  // set, with a wrong type: read() says so
+  }
+  joint.read(r,
+             density.params().landmark_density > 0.0 || density.estimating() ||
+                 paper.sensor.clutter_density > 0.0,
+             age_set);
   RememberedFeatures remembered;
   remembered.read(r);
   LandmarkSpacing spacing;

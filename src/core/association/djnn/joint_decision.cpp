@@ -8,14 +8,17 @@
 
 namespace ekf_slam {
 
-void JointDecision::read(const ParameterReader& r, bool unmapped_density) {
+void JointDecision::read(const ParameterReader& r, bool unmapped_density, bool age_set) {
   const Params def;
   p_.loop_closure_age = r.nonNegative("loop_closure_age", def.loop_closure_age);
   p_.joint_margin = r.nonNegative("joint_margin", def.joint_margin);
   if (p_.loop_closure_age > 0.0 && !unmapped_density) {
-    r.fail("loop_closure_age",
-           "needs landmark_density (or its estimate) or clutter_density > 0 (the joint decision's "
-           "\"not in the map\")");
+    if (age_set) {
+      r.fail("loop_closure_age",
+             "needs landmark_density (or its estimate) or clutter_density > 0 (the joint "
+             "decision's \"not in the map\")");
+    }
+    p_.loop_closure_age = 0.0;  // the default, with no "not in the map" to weigh: off
   }
 }
 

@@ -5,14 +5,13 @@ namespace ekf_slam {
 const std::map<std::string, std::string>& missedDetectionDefaults() {
   // Each measured on `fiducials` / `arena` (docs/djnn.md, "A sensor that misses landmarks").
   static const std::map<std::string, std::string> defaults = {
-      {"tentative_follow_pose", "true"},      // FollowPose
-      {"static_heading", "true"},             // StaticTest
-      {"learn_mover_speed", "true"},          // StaticTest: the movers' speed, online
-      {"shift_test", "true"},                 // ShiftTest
-      {"estimate_landmark_density", "true"},  // DensityTest, from the map
-      {"bias_keep_pairings", "10"},           // BiasTest: established landmarks
-      {"loop_closure_age", "60"},             // JointDecision
-      {"remembered_sightings", "2"},          // RememberedFeatures
+      {"tentative_follow_pose", "true"},  // FollowPose
+      {"static_heading", "true"},         // StaticTest
+      {"learn_mover_speed", "true"},      // StaticTest: the movers' speed, online
+      {"shift_test", "true"},             // ShiftTest
+      {"density_test", "true"},           // DensityTest (its density: estimated by default)
+      {"bias_keep_pairings", "10"},       // BiasTest: established landmarks
+      {"remembered_sightings", "2"},      // RememberedFeatures
       {"held_birth_cost", "4"},
       {"held_confirmations", "1"},  // HeldConfirmation
   };

@@ -23,7 +23,11 @@ class DensityTest {
     double landmark_density = 0.0;  ///< unmapped landmarks per m^2 where the sensor looks; 0: off
     /// With landmark_density 0: estimate it online from the map (the test is off until the
     /// sensor region has held a mapped landmark).
-    bool estimate_landmark_density = false;
+    bool estimate_landmark_density = true;
+    /// Withdraw, outside loop closures, the pairings that do not beat the density (the joint
+    /// decision at loop closures weighs the density either way). Default: on when
+    /// landmark_density is given (missed-detection profile: on).
+    bool density_test = false;
   };
   void read(const ParameterReader& r);
   /// The sensor region whose area the estimate divides by.
@@ -33,7 +37,8 @@ class DensityTest {
   bool estimating() const { return p_.landmark_density <= 0.0 && p_.estimate_landmark_density; }
   /// The density in use: the configured one, or the estimate (0 before any).
   double density() const;
-  bool on() const { return density() > 0.0; }
+  /// The test of apply() runs.
+  bool on() const { return p_.density_test && density() > 0.0; }
   /// Feeds the estimate with this scan's local region (after DjnnPaper::localRegion).
   void observe(const AssociationContext& ctx, const DjnnPaper& paper, const LocalScan& scan);
   /// -2 ln of "a landmark not in the map, or clutter" per observation (also the joint

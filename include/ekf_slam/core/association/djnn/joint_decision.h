@@ -27,7 +27,7 @@ namespace ekf_slam {
 class JointDecision {
  public:
   struct Params {
-    double loop_closure_age = 0.0;  ///< [s]; 0: off
+    double loop_closure_age = 60.0;  ///< [s]; 0: off
     double joint_margin = 6.0;
   };
   /// What the decision reads of DJNN's other parts.
@@ -42,8 +42,9 @@ class JointDecision {
   };
 
   /// `unmapped_density`: a density of "not in the map" is known (landmark_density, its online
-  /// estimate, or clutter_density); needed when on.
-  void read(const ParameterReader& r, bool unmapped_density);
+  /// estimate, or clutter_density); needed when on. Without one, loop_closure_age set by the user
+  /// (`age_set`) is an error and the default is off.
+  void read(const ParameterReader& r, bool unmapped_density, bool age_set);
   const Params& params() const { return p_; }
   bool on() const { return p_.loop_closure_age > 0.0; }
   void reset();

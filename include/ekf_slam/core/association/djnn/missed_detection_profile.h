@@ -3,11 +3,11 @@
 // Such a sensor leaves many features tentative for long while the pose is corrected, lets movers
 // pass close to landmarks between sightings, and returns to old places with the pose uncertain by
 // more than the landmark spacing. The extensions written for those failures (follow pose, static
-// heading, shift and density tests with an online density estimate, established landmarks, the
-// joint decision at loop closures with remembered sightings and held confirmations) are then on
-// by default. A value the user sets always wins; `missed_detection_profile: false` turns the
-// profile off; a sensor with P_D = 1 (the papers', Victoria Park) reads exactly the documented
-// defaults.
+// heading, the shift and density tests, established landmarks, remembered sightings and held
+// confirmations at the loop closures) are then on by default. A value the user sets always wins;
+// `missed_detection_profile: false` turns the profile off; a sensor with P_D = 1 (the papers',
+// Victoria Park) reads exactly the documented defaults. (The online density estimate and the
+// joint decision at loop closures were in the profile until 6 Dec 2026; they are defaults now.)
 #pragma once
 
 #include <map>

@@ -13,11 +13,12 @@
 //   FollowPose           tentative_follow_pose           tentative features left behind when
 //                                                        the pose is corrected
 //   ShiftTest            shift_test, shift_margin        a periodic layout's shifted pairing
-//   DensityTest          landmark_density, estimate_landmark_density
+//   DensityTest          density_test, landmark_density, estimate_landmark_density
 //                                                        a new landmark paired with an old one
 //   missed-detection profile (missed_detection_profile.h): the defaults of the parts above for a
 //                        sensor with detection_probability < 1
-//   JointDecision        loop_closure_age, joint_margin  wrong pairings at loop closures
+//   JointDecision        loop_closure_age, joint_margin  wrong pairings at loop closures (its
+//                                                        "not in the map": DensityTest's density)
 //   RememberedFeatures   remembered_sightings, held_birth_cost   holes in the map at closures
 //   LandmarkSpacing      landmark_spacing                duplicates after an over-confident closure
 //   HeldConfirmation     held_confirmations              a closure decided on one scan's noise

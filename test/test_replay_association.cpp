@@ -47,11 +47,14 @@ struct Case {
 //  - NNJCBB: NN interferes, so JCBB runs.
 //  - Hungarian: the true assignment costs 5 x ~1.45 = 7.3; the shifted one 4 x 0.65 + the gate
 //    5.99 for the unpaired observation 0 = 8.6.
-//  - DJNN case 2 (seed 000 eq. 6): v_bar from the unique pairs (2-4, shifted by one) moves
-//    observation 1 onto landmark 0, which it wins; observation 0 is left without a landmark.
+//  - DJNN: no landmark was paired before, so the scan is a loop closure and the joint decision
+//    takes the joint ML hypothesis, the true one. The paper's DJNN (kPaperDjnn), case 2
+//    (seed 000 eq. 6): v_bar from the unique pairs (2-4, shifted by one) moves observation 1
+//    onto landmark 0, which it wins; observation 0 is left without a landmark.
 // sensor_offset_wrap: sensor mounted sideways facing backwards; landmarks 1 and 2 lie behind the
-//   sensor at bearings near +-pi and observation 3's bearing wraps. DJNN's default field of view
-//   (pi, seed 000 eq. 10) excludes them; params_360.yaml widens it.
+//   sensor at bearings near +-pi and observation 3's bearing wraps. The paper's field of view
+//   (pi, seed 000 eq. 10) excludes them; params_360.yaml widens it. DJNN's joint decision at a
+//   loop closure adds the landmarks that gate with an observation to the candidates.
 // clear: obvious pairs, observation 1 is clutter.
 const std::vector<Case> kCases = {
     {"clear", "NN", {1, -1, 2, 0}, 0.30740741213879696},
@@ -63,13 +66,17 @@ const std::vector<Case> kCases = {
     {"shifted_row", "JCBB", {0, 1, 2, 3, 4}, 1.6259514398184607},
     {"shifted_row", "NNJCBB", {0, 1, 2, 3, 4}, 1.6259514398184607},
     {"shifted_row", "Hungarian", {0, 1, 2, 3, 4}, 1.6259514398184607},
-    {"shifted_row", "DJNN", {-1, 0, 1, 2, 3}, 0.6669332146367519},
+    {"shifted_row", "DJNN", {0, 1, 2, 3, 4}, 1.6259514398184607},
     {"sensor_offset_wrap", "NN", {2, 0, -1, 1}, 0.46440925372528186},
     {"sensor_offset_wrap", "JCBB", {2, 0, -1, 1}, 0.46440925372528186},
     {"sensor_offset_wrap", "NNJCBB", {2, 0, -1, 1}, 0.46440925372528186},
     {"sensor_offset_wrap", "Hungarian", {2, 0, -1, 1}, 0.46440925372528186},
-    {"sensor_offset_wrap", "DJNN", {-1, 0, -1, -1}, -1.0},
+    {"sensor_offset_wrap", "DJNN", {2, 0, -1, 1}, 0.46440925372528186},
 };
+
+// DJNN without the joint decision at loop closures, as seed 000 publishes it (the problem gives
+// the gates).
+const std::string kPaperDjnn = "loop_closure_age: 0\nestimate_landmark_density: false\n";
 
 TEST(ReplayAssociation, ExpectedPairsPerAssociator) {
   for (const auto& c : kCases) {
@@ -85,6 +92,16 @@ TEST(ReplayAssociation, ExpectedPairsPerAssociator) {
       EXPECT_EQ(r.result.decision[i] == Decision::kPaired, c.landmark[i] >= 0) << "obs " << i;
     }
   }
+}
+
+TEST(ReplayAssociation, ThePapersDjnnKeepsTheShiftAndItsFieldOfView) {
+  const auto shifted =
+      replay(readAssociationProblem(kData + "/shifted_row.json"), "DJNN", kPaperDjnn);
+  EXPECT_EQ(shifted.landmark, (std::vector<int>{-1, 0, 1, 2, 3}));
+  EXPECT_NEAR(shifted.joint_mahalanobis, 0.6669332146367519, 1e-6);
+  const auto behind =
+      replay(readAssociationProblem(kData + "/sensor_offset_wrap.json"), "DJNN", kPaperDjnn);
+  EXPECT_EQ(behind.landmark, (std::vector<int>{-1, 0, -1, -1}));
 }
 
 TEST(ReplayAssociation, DjnnSeesBehindWithA360DegreeFieldOfView) {

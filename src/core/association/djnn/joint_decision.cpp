@@ -93,13 +93,14 @@ bool JointDecision::decide(const AssociationContext& ctx, const Parts& parts, Lo
   const DjnnPaperParams& pp = parts.paper.params();
   const double gate = parts.ambiguity_gate;
   widenCandidates(ctx, pp.sensor.max_range, pp.range_margin, gate, scan);
+  // A closure scan: an observation gates with a landmark last paired longer ago than
+  // loop_closure_age (or never). The age first: most candidates were paired lately.
   bool old = false;
-  for (int i = 0; i < m && !old; ++i) {
-    for (int j : scan->cand) {
-      if (ctx.individual(i, j).mahalanobis > gate) continue;
-      const auto it = last_paired_.find(ctx.landmarkId(j));
-      old = old || it == last_paired_.end() || scan->stamp - it->second > p_.loop_closure_age;
-    }
+  for (int j : scan->cand) {
+    const auto it = last_paired_.find(ctx.landmarkId(j));
+    if (it != last_paired_.end() && !(scan->stamp - it->second > p_.loop_closure_age)) continue;
+    for (int i = 0; i < m && !old; ++i) old = !(ctx.individual(i, j).mahalanobis > gate);
+    if (old) break;
   }
   if (!old) {
     endHeldStreak(&parts.confirmation, stats);

@@ -46,6 +46,17 @@ void JointDecision::endHeldStreak(HeldConfirmation* confirmation, DjnnStats* sta
   confirmation->clear();
 }
 
+namespace {
+// The reach of the widened candidates: the local region's range grown by three standard
+// deviations of the pose (position, and heading at the far range).
+double widenedRadius(const AssociationContext& ctx, double R, double range_margin) {
+  const Eigen::Matrix3d P = ctx.ekf().poseCovariance();
+  return R + range_margin +
+         3.0 *
+             (std::sqrt(std::max(0.0, P(0, 0) + P(1, 1))) + R * std::sqrt(std::max(0.0, P(2, 2))));
+}
+}  // namespace
+
 // The local region (eq. 10) is placed by the pose estimate with margins for a good pose; back on
 // old landmarks with a pose error of metres, a true landmark in view can lie outside it, and the
 // joint decision would then never weigh the true hypothesis. Landmarks within three standard
@@ -53,10 +64,7 @@ void JointDecision::endHeldStreak(HeldConfirmation* confirmation, DjnnStats* sta
 // join the candidates.
 void JointDecision::widenCandidates(const AssociationContext& ctx, double R, double range_margin,
                                     double gate, LocalScan* scan) const {
-  const Eigen::Matrix3d P = ctx.ekf().poseCovariance();
-  const double radius =
-      R + range_margin +
-      3.0 * (std::sqrt(std::max(0.0, P(0, 0) + P(1, 1))) + R * std::sqrt(std::max(0.0, P(2, 2))));
+  const double radius = widenedRadius(ctx, R, range_margin);
   const int m = scan->observations();
   std::vector<int> added;
   for (int j : ctx.landmarksNear(scan->sensor_pose.head<2>(), radius)) {
@@ -92,16 +100,38 @@ bool JointDecision::decide(const AssociationContext& ctx, const Parts& parts, Lo
   const int m = scan->observations();
   const DjnnPaperParams& pp = parts.paper.params();
   const double gate = parts.ambiguity_gate;
-  widenCandidates(ctx, pp.sensor.max_range, pp.range_margin, gate, scan);
   // A closure scan: an observation gates with a landmark last paired longer ago than
-  // loop_closure_age (or never). The age first: most candidates were paired lately.
+  // loop_closure_age (or never), in the local region or among the landmarks the widening would
+  // add. The age first: most landmarks near were paired lately, and only a closure scan is
+  // widened.
+  const auto is_old = [&](int j) {
+    const auto it = last_paired_.find(ctx.landmarkId(j));
+    return it == last_paired_.end() || scan->stamp - it->second > p_.loop_closure_age;
+  };
+  const auto gates = [&](int j) {
+    for (int i = 0; i < m; ++i) {
+      if (!(ctx.individual(i, j).mahalanobis > gate)) return true;
+    }
+    return false;
+  };
   bool old = false;
   for (int j : scan->cand) {
-    const auto it = last_paired_.find(ctx.landmarkId(j));
-    if (it != last_paired_.end() && !(scan->stamp - it->second > p_.loop_closure_age)) continue;
-    for (int i = 0; i < m && !old; ++i) old = !(ctx.individual(i, j).mahalanobis > gate);
-    if (old) break;
+    if (is_old(j) && gates(j)) {
+      old = true;
+      break;
+    }
   }
+  if (!old) {
+    for (int j : ctx.landmarksNear(scan->sensor_pose.head<2>(),
+                                   widenedRadius(ctx, pp.sensor.max_range, pp.range_margin))) {
+      if (std::binary_search(scan->cand.begin(), scan->cand.end(), j)) continue;
+      if (is_old(j) && gates(j)) {
+        old = true;
+        break;
+      }
+    }
+  }
+  if (old) widenCandidates(ctx, pp.sensor.max_range, pp.range_margin, gate, scan);
   if (!old) {
     endHeldStreak(&parts.confirmation, stats);
     return false;

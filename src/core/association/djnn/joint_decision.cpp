@@ -131,11 +131,11 @@ bool JointDecision::decide(const AssociationContext& ctx, const Parts& parts, Lo
       }
     }
   }
-  if (old) widenCandidates(ctx, pp.sensor.max_range, pp.range_margin, gate, scan);
   if (!old) {
     endHeldStreak(&parts.confirmation, stats);
     return false;
   }
+  widenCandidates(ctx, pp.sensor.max_range, pp.range_margin, gate, scan);
   JointOptions options;
   if (parts.remembered.on()) {
     std::vector<int> live;

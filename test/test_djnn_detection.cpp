@@ -226,12 +226,14 @@ TEST(DJNNDetection, MissedDetectionProfileIsOnBelowDetectionProbabilityOne) {
   const DJNN all_seen = makeDjnn();
   EXPECT_FALSE(all_seen.params().follow_pose.tentative_follow_pose);
   EXPECT_FALSE(all_seen.params().shift.shift_test);
+  EXPECT_FALSE(all_seen.params().density.density_test);
   EXPECT_EQ(all_seen.params().bias.bias_keep_pairings, 0);
 
   const DJNN camera = makeDjnn({{"detection_probability", "0.7"}});
   EXPECT_TRUE(camera.params().follow_pose.tentative_follow_pose);
   EXPECT_TRUE(camera.params().static_test.static_heading);
   EXPECT_TRUE(camera.params().shift.shift_test);
+  EXPECT_TRUE(camera.params().density.density_test);
   EXPECT_EQ(camera.params().bias.bias_keep_pairings, 10);
   EXPECT_EQ(camera.params().remembered.remembered_sightings, 2);
   EXPECT_EQ(camera.params().remembered.held_birth_cost, 4.0);
@@ -258,6 +260,11 @@ TEST(DJNNDetection, LoopClosuresAreDecidedJointlyForEverySensor) {
   const DJNN all_seen;
   EXPECT_TRUE(all_seen.params().density.estimate_landmark_density);
   EXPECT_EQ(all_seen.params().joint.loop_closure_age, 60.0);
+  EXPECT_FALSE(all_seen.params().density.density_test);  // ordinary scans: not by default
+  DJNN given;                                            // ... unless the density is given
+  given.configure(
+      MapParameterSource(std::map<std::string, std::string>{{"landmark_density", "0.3"}}));
+  EXPECT_TRUE(given.params().density.density_test);
   DJNN camera;
   camera.configure(
       MapParameterSource(std::map<std::string, std::string>{{"detection_probability", "0.7"}}));

@@ -67,7 +67,7 @@ endfunction()
 # The estimator (ROS-free): the filter, association, DJNN, relocalisation and the lost rules.
 ekf_slam_tests(tests_filter LIBS ekf_slam_core FILES
   test_chi2 test_parameters test_coverage_grid test_sensor_model test_observation_model
-  test_motion_models test_ekf_slam test_ekf_storage test_first_estimate_jacobians
+  test_motion_models test_ekf_slam test_ekf_storage test_first_estimate_jacobians test_invariant_ekf
   test_cartesian_observations test_landmark_index test_batch_smoother test_pose_clones)
 ekf_slam_tests(tests_association LIBS ekf_slam_core ekf_slam_victoria_park FILES
   test_beacon_extractor test_tree_extractor test_association_context test_plugin_forwarding

@@ -304,7 +304,12 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
     }
   }
 
-  x_ += dx;
+  const bool invariant = linearisation_ == Linearisation::kInvariant;
+  if (invariant) {
+    retractInvariant(dx, &moved_);
+  } else {
+    x_ += dx;
+  }
   x_(2) = wrapAngle(x_(2));
   for (int i = 0; i < k_; ++i) {
     const double c = x_(3 + i);
@@ -313,7 +318,23 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   }
   // Lower triangle only (the floor: N^2 d flops); of the upper one, keep the vehicle rows and
   // each landmark's 2 x 2 block current (O(n)), the rest waits for covariance().
-  lowerRankDowndate(P, pht, &packed_w_);
+  if (invariant) {
+    // M (P - W W^T) M^T: the pose's rank-2 term rides in the downdate's pass over P,
+    // as P -= [W, d0, v0] [W, -v0, -d0]^T; the clones' terms touch two rows each.
+    invariantTerms(pht, moved_);
+    Eigen::Map<Eigen::MatrixXd> a(workspace(&inv_a_, n * (d + 2)), n, d + 2);
+    Eigen::Map<Eigen::MatrixXd> b(workspace(&inv_b_, n * (d + 2)), n, d + 2);
+    a.leftCols(d) = pht;
+    b.leftCols(d) = pht;
+    a.col(d) = d0_;
+    a.col(d + 1) = v0_;
+    b.col(d) = -v0_;
+    b.col(d + 1) = -d0_;
+    lowerProductDowndate(P, a, b, &packed_w_);
+    applyInvariantCloneTerms(moved_);
+  } else {
+    lowerRankDowndate(P, pht, &packed_w_);
+  }
   const Eigen::Index a = 3 + k_;
   P.topLeftCorner(a, a).triangularView<Eigen::StrictlyUpper>() = P.topLeftCorner(a, a).transpose();
   P.block(0, a, a, n - a) = P.block(a, 0, n - a, a).transpose();
@@ -328,6 +349,108 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   if (record_shapes_) ++stats_.shapes[{static_cast<int>(n), static_cast<int>(d)}];
   if (nis) *nis = v.squaredNorm();
   return true;
+}
+
+namespace {
+
+// J p, the 90 degree rotation: d/de of R(e) p at e = 0.
+Eigen::Vector2d perp(const Eigen::Vector2d& p) { return Eigen::Vector2d(-p(1), p(0)); }
+
+// exp of (phi, u) in SE(2) applied to position p: R(phi) p + V(phi) u.
+Eigen::Vector2d exponentialMove(double phi, const Eigen::Vector2d& u, const Eigen::Vector2d& p) {
+  const double s = std::sin(phi), c = std::cos(phi);
+  // V = [a -b; b a] with a = sin(phi) / phi, b = (1 - cos(phi)) / phi (series near 0).
+  const double a = std::abs(phi) < 1e-6 ? 1.0 - phi * phi / 6.0 : s / phi;
+  const double b = std::abs(phi) < 1e-6 ? 0.5 * phi : (1.0 - c) / phi;
+  return Eigen::Vector2d(c * p(0) - s * p(1) + a * u(0) - b * u(1),
+                         s * p(0) + c * p(1) + b * u(0) + a * u(1));
+}
+
+}  // namespace
+
+void EkfSlam::retractInvariant(const Eigen::Ref<const Eigen::VectorXd>& dx,
+                               Eigen::VectorXd* moved) {
+  // dx is T(x) xi to first order: a position's xi is its dx less the rotation part phi J p.
+  moved->setZero(dim_);
+  const auto move = [&](double phi, Eigen::Index row) {
+    const Eigen::Vector2d p = x_.segment<2>(row);
+    const Eigen::Vector2d u = dx.segment<2>(row) - phi * perp(p);
+    x_.segment<2>(row) = exponentialMove(phi, u, p);
+    moved->segment<2>(row) = x_.segment<2>(row) - p;
+  };
+  move(dx(2), 0);
+  x_(2) += dx(2);
+  x_.segment(3, k_) += dx.segment(3, k_);  // the correction states are not positions
+  const Eigen::Index map_end = mapEnd();
+  for (Eigen::Index r = 3 + k_; r < map_end; r += 2) move(dx(2), r);
+  for (Eigen::Index r = map_end; r < dim_; r += 3) {
+    move(dx(r + 2), r);
+    x_(r + 2) = wrapAngle(x_(r + 2) + dx(r + 2));
+  }
+}
+
+void EkfSlam::invariantTerms(const Eigen::Ref<const Eigen::MatrixXd>& W,
+                             const Eigen::VectorXd& moved) {
+  // P_std = T(x) P_xi T(x)^T with T = I + sum_b c_b(x) e_b^T, c_b = J (positions following
+  // heading b): the pose's heading for the pose's and the landmarks' positions, each clone's for
+  // its own. P_xi is unchanged by the retraction, so the downdated P' = P - W W^T becomes
+  // M P' M^T with M = T(x+) T(x-)^-1 = I + sum_b d_b e_b^T, d_b = J moved_b. Written out, with
+  // a_b = P' e_b and s_bc = P'(b, c): M P' M^T = P' + sum_b (d_b v_b^T + v_b d_b^T) where
+  // v_0 = a_0 + s_00 d_0 / 2 for the pose and v_c = a_c + s_0c d_0 + sum_k s_ck d_k / 2 for a
+  // clone (the pose-clone cross terms go to the clone; the sum is symmetric).
+  const ConstMatrixView P = storedCovariance();
+  const Eigen::Index n = dim_, map_end = mapEnd();
+  const int clones = static_cast<int>(clones_.size());
+  // Columns of P' at a heading: P's from its lower triangle (the part current now), less W's.
+  const auto column = [&](Eigen::Index c, Eigen::Ref<Eigen::VectorXd> a) {
+    a.head(c) = P.row(c).head(c).transpose();
+    a.tail(n - c) = P.col(c).tail(n - c);
+    a.noalias() -= W * W.row(c).transpose();
+  };
+  d0_.setZero(n);
+  d0_.segment<2>(0) = perp(moved.segment<2>(0));
+  for (Eigen::Index r = 3 + k_; r < map_end; r += 2) d0_.segment<2>(r) = perp(moved.segment<2>(r));
+  heading_col_.resize(n);
+  column(2, heading_col_);
+  v0_ = heading_col_ + 0.5 * heading_col_(2) * d0_;
+  clone_cols_.resize(n, clones);
+  for (int j = 0; j < clones; ++j) column(map_end + 3 * j + 2, clone_cols_.col(j));
+}
+
+void EkfSlam::applyInvariantCloneTerms(const Eigen::VectorXd& moved) {
+  const int clones = static_cast<int>(clones_.size());
+  if (clones == 0) return;
+  auto P = this->P();
+  const Eigen::Index n = dim_, map_end = mapEnd();
+  // v_c for every clone (columns of clone_v_) and d_c's two rows (columns of clone_d_).
+  clone_v_.resize(n, clones);
+  clone_d_.resize(2, clones);
+  for (int j = 0; j < clones; ++j) clone_d_.col(j) = perp(moved.segment<2>(map_end + 3 * j));
+  for (int j = 0; j < clones; ++j) {
+    const Eigen::Index r = map_end + 3 * j;
+    auto v = clone_v_.col(j);
+    v = clone_cols_.col(j) + heading_col_(r + 2) * d0_;
+    for (int k = 0; k < clones; ++k)
+      v.segment<2>(map_end + 3 * k) += 0.5 * clone_cols_(r + 2, k) * clone_d_.col(k);
+  }
+  // P += sum_c (d_c v_c^T + v_c d_c^T) on the lower triangle. d_c v_c^T changes clone c's
+  // position rows: in each column, the clone rows at or below the diagonal (column by column, so
+  // that each column's clone rows are read once).
+  for (Eigen::Index k = 0; k < n; ++k) {
+    for (int j = 0; j < clones; ++j) {
+      const Eigen::Index r = map_end + 3 * j;
+      if (r + 1 < k) continue;
+      if (r >= k) P(r, k) += clone_d_(0, j) * clone_v_(k, j);
+      P(r + 1, k) += clone_d_(1, j) * clone_v_(k, j);
+    }
+  }
+  // v_c d_c^T changes clone c's position columns, below the diagonal.
+  for (int j = 0; j < clones; ++j) {
+    for (int t = 0; t < 2; ++t) {
+      const Eigen::Index q = map_end + 3 * j + t;
+      P.col(q).tail(n - q) += clone_d_(t, j) * clone_v_.col(j).tail(n - q);
+    }
+  }
 }
 
 LandmarkId EkfSlam::addLandmark(const Eigen::Vector2d& z, const Eigen::Matrix2d& R,

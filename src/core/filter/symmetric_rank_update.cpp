@@ -17,7 +17,7 @@ constexpr int kLanes = 4;
 constexpr int kLanes = 2;
 #endif
 typedef double Vec __attribute__((vector_size(kLanes * sizeof(double))));
-// Same, for loads and stores at any double-aligned address (P and W have leading dimensions of
+// Same, for loads and stores at any double-aligned address (P, A and B have leading dimensions of
 // any size).
 typedef double VecU __attribute__((vector_size(kLanes * sizeof(double)), aligned(sizeof(double))));
 
@@ -27,15 +27,15 @@ typedef double VecU __attribute__((vector_size(kLanes * sizeof(double)), aligned
 constexpr int kRowVecs = kLanes == 2 ? 3 : 1;
 constexpr int kRows = kRowVecs * kLanes;
 constexpr int kCols = kLanes == 2 ? 4 : 8;
-// W's columns per pass: the broadcast copies of a column block (kDepth x kCols vectors) stay on
-// the stack (32 KiB with AVX) and in L1. Updates of larger d make several passes.
+// A's and B's columns per pass: the broadcast copies of a column block (kDepth x kCols vectors)
+// stay on the stack (32 KiB with AVX) and in L1. Updates of larger d make several passes.
 constexpr int kDepth = 128;
 
 inline Vec load(const double* p) { return *reinterpret_cast<const VecU*>(p); }
 inline void store(double* p, Vec v) { *reinterpret_cast<VecU*>(p) = v; }
 
-// P(i0.., j0..) -= W(i0.., 0..d) W(j0.., 0..d)^T for one tile. `a` holds the tile's rows of W,
-// k-major (a[k * kRows + r], zero below row n); `b` holds W(j0 + c, k) broadcast at
+// P(i0.., j0..) -= A(i0.., 0..d) B(j0.., 0..d)^T for one tile. `a` holds the tile's rows of A,
+// k-major (a[k * kRows + r], zero below row n); `b` holds B(j0 + c, k) broadcast at
 // b[k * kCols + c]. Full tiles strictly below the diagonal go through vectors; tiles on the
 // diagonal or at the bottom edge store element by element (the lower triangle, rows below n).
 inline void tile(double* P, Eigen::Index ld, const double* a, Eigen::Index d, const Vec* b,
@@ -73,8 +73,14 @@ inline void tile(double* P, Eigen::Index ld, const double* a, Eigen::Index d, co
 
 void lowerRankDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>& W,
                        std::vector<double>* workspace) {
+  lowerProductDowndate(P, W, W, workspace);
+}
+
+void lowerProductDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>& A,
+                          const Eigen::Ref<const Eigen::MatrixXd>& B,
+                          std::vector<double>* workspace) {
   const Eigen::Index n = P.rows();
-  const Eigen::Index d = W.cols();
+  const Eigen::Index d = A.cols();
   if (n == 0 || d == 0) return;
   std::vector<double> local;
   std::vector<double>& packed = workspace ? *workspace : local;
@@ -83,18 +89,19 @@ void lowerRankDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>& W,
   if (packed.size() < static_cast<std::size_t>(blocks * kRows * depth_max))
     packed.resize(blocks * kRows * depth_max);
   double* p = P.data();
-  const Eigen::Index ld = P.outerStride(), ldw = W.outerStride();
+  const Eigen::Index ld = P.outerStride(), lda = A.outerStride(), ldb = B.outerStride();
   Vec b[kDepth * kCols];
   for (Eigen::Index k0 = 0; k0 < d; k0 += kDepth) {
     const Eigen::Index depth = std::min<Eigen::Index>(kDepth, d - k0);
-    const double* w = W.data() + k0 * ldw;
-    // W's rows in tiles, k-major within a tile: the kernel then reads one stream (O(n d), against
+    const double* w = A.data() + k0 * lda;
+    const double* wb = B.data() + k0 * ldb;
+    // A's rows in tiles, k-major within a tile: the kernel then reads one stream (O(n d), against
     // the downdate's n^2 d / 2 multiply-adds).
     for (Eigen::Index t = 0; t < blocks; ++t) {
       double* a = packed.data() + t * kRows * depth;
       const Eigen::Index i0 = t * kRows, rows = std::min<Eigen::Index>(kRows, n - i0);
       for (Eigen::Index k = 0; k < depth; ++k) {
-        const double* src = w + k * ldw + i0;
+        const double* src = w + k * lda + i0;
         for (Eigen::Index r = 0; r < kRows; ++r) a[k * kRows + r] = r < rows ? src[r] : 0.0;
       }
     }
@@ -104,7 +111,7 @@ void lowerRankDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>& W,
       const int cols = static_cast<int>(std::min<Eigen::Index>(kCols, n - j0));
       for (Eigen::Index k = 0; k < depth; ++k) {
         for (int c = 0; c < kCols; ++c) {
-          const double v = c < cols ? w[k * ldw + j0 + c] : 0.0;
+          const double v = c < cols ? wb[k * ldb + j0 + c] : 0.0;
           b[k * kCols + c] = Vec{} + v;
         }
       }

@@ -149,15 +149,17 @@ void PipelineConfig::validate() const {
   positive(cekf_area_size, "cekf_area_size");
   nonNegative(cekf_margin, "cekf_margin");
   nonNegative(cekf_area_slack, "cekf_area_slack");
-  if (jacobians != "auto" && jacobians != "standard" && jacobians != "first_estimate") {
+  if (jacobians != "auto" && jacobians != "standard" && jacobians != "first_estimate" &&
+      jacobians != "invariant") {
     throw ParameterError(
-        "parameter jacobians: must be one of {auto, standard, first_estimate}, got '" + jacobians +
-        "'");
+        "parameter jacobians: must be one of {auto, standard, first_estimate, invariant}, got '" +
+        jacobians + "'");
   }
   // The compressed filter's private filter starts from the current estimates at every area
-  // switch: it would need the first estimates carried through it (not done).
-  if (jacobians == "first_estimate" && filter == "cekf") {
-    throw ParameterError("parameter jacobians: first_estimate needs filter ekf, not cekf");
+  // switch: it would need the first estimates carried through it (not done); the invariant
+  // filter re-expresses the whole P after each update, which the compressed one defers.
+  if ((jacobians == "first_estimate" || jacobians == "invariant") && filter == "cekf") {
+    throw ParameterError("parameter jacobians: " + jacobians + " needs filter ekf, not cekf");
   }
 }
 
@@ -265,7 +267,8 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.lost_max_scans = r.integer("lost_max_scans", c.lost_max_scans, 0, 100000);
   c.lost_nis_probability = r.probability("lost_nis_probability", c.lost_nis_probability);
   c.filter = r.text("filter", c.filter, {"ekf", "cekf"});
-  c.jacobians = r.text("jacobians", c.jacobians, {"auto", "standard", "first_estimate"});
+  c.jacobians =
+      r.text("jacobians", c.jacobians, {"auto", "standard", "first_estimate", "invariant"});
   c.second_order_observations = r.flag("second_order_observations", c.second_order_observations);
   c.delayed_sightings = r.flag("delayed_sightings", c.delayed_sightings);
   c.max_pose_clones = r.integer("max_pose_clones", c.max_pose_clones, 1, 10000);

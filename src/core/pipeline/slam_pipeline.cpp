@@ -58,6 +58,7 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
   history_.configure(config_.lost_onset_scans, config_.lost_onset_snapshots);
   EkfSlam& ekf = filter_.ekf();
   ekf.setLinearisation(config_.firstEstimateJacobians() ? Linearisation::kFirstEstimate
+                       : config_.invariantJacobians()   ? Linearisation::kInvariant
                                                         : Linearisation::kStandard);
   ekf.setSecondOrderObservations(config_.second_order_observations);
   reset();

@@ -54,6 +54,16 @@ enum class Linearisation : std::uint8_t {
   /// from the propagated positions (new prior minus the previous prior), not from the updated one.
   /// The Jacobians then keep the global rotation unobservable, as it truly is.
   kFirstEstimate = 1,
+  /// The right-invariant EKF (Barrau & Bonnabel 2015, "An EKF-SLAM algorithm with consistency
+  /// properties"): the error of every position is taken in the frame the heading error rotates
+  /// (x = R(e_yaw) x_hat + e_x for the pose and the landmarks; a clone's position with its own
+  /// heading). In those coordinates the odometry's transition is the identity and H has no
+  /// heading column, so the global rotation stays unobservable whatever the estimate. P is kept
+  /// in the standard coordinates: the Jacobians are the standard ones at the current estimate,
+  /// the correction is applied through the group's exponential, and after each update P is
+  /// re-expressed at the corrected estimate (P <- M P M^T, M = I + J dx e_yaw^T over the
+  /// positions that follow the heading).
+  kInvariant = 2,
 };
 
 /// Work done by EkfSlam::update, counted over the filter's life (kept over reset()).
@@ -178,6 +188,8 @@ class EkfSlam {
   /// finite or a correction state's variance would not stay positive. Correction states pushed past
   /// their bounds are clamped (counted). Optionally returns the NIS v^T S^-1 v.
   /// H at the current pose and each landmark's estimate, or with kFirstEstimate its first one.
+  /// With kInvariant the correction moves the positions through the group's exponential and P is
+  /// re-expressed at the corrected estimate (an O(n^2) rank-2 step, plus O(n) per clone).
   bool update(const std::vector<Pairing>& pairings, const RangeBearingModel& model,
               double* nis = nullptr);
 
@@ -243,6 +255,15 @@ class EkfSlam {
   friend class CompressedEkf;
 
   bool predictAugmented(const MotionStep& step);
+  /// kInvariant: x <- exp(xi) x with xi the correction dx in invariant coordinates; each
+  /// position's change is written to `moved` (zero elsewhere).
+  void retractInvariant(const Eigen::Ref<const Eigen::VectorXd>& dx, Eigen::VectorXd* moved);
+  /// kInvariant: P <- M (P - W W^T) M^T, M = I + sum_b (J moved_b) e_b^T, b the pose's heading
+  /// (for the pose's and the landmarks' positions) and each clone's (for its own). The terms are
+  /// found before the downdate (d0_, v0_ for the pose, columns for the clones) ...
+  void invariantTerms(const Eigen::Ref<const Eigen::MatrixXd>& W, const Eigen::VectorXd& moved);
+  /// ... and the clones' are applied after it, to the lower triangle.
+  void applyInvariantCloneTerms(const Eigen::VectorXd& moved);
   /// step.F, or with kFirstEstimate its heading column from the prior position.
   Eigen::Matrix3d transition(const MotionStep& step) const;
   MatrixView P() {
@@ -297,7 +318,9 @@ class EkfSlam {
   // Update workspaces, grown only when too small: no heap allocation per scan. Views over them:
   // P H^T then W = P H^T L^-T (N x d), S then its Cholesky factor (d x d), the innovation then
   // L^-1 v (d), the state correction (N), W copied in the rank downdate's tile order (N x d).
-  std::vector<double> pht_, s_, v_, dx_, packed_w_;
+  std::vector<double> pht_, s_, v_, dx_, packed_w_, inv_a_, inv_b_;
+  Eigen::VectorXd moved_, heading_col_, d0_, v0_;  // kInvariant's re-expression
+  Eigen::MatrixXd clone_cols_, clone_v_, clone_d_;
   std::vector<int> rows_, pose_rows_;
   std::vector<Matrix23d> hv_;
   std::vector<Eigen::Matrix2d, Eigen::aligned_allocator<Eigen::Matrix2d>> hm_;

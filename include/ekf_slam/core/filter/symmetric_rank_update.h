@@ -21,6 +21,13 @@ using ConstMatrixView = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<
 void lowerRankDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>& W,
                        std::vector<double>* workspace = nullptr);
 
+/// P -= A B^T on the lower triangle, A and B N x d with A B^T symmetric (the caller's promise:
+/// only the lower triangle is computed), in the same kernel: e.g. a downdate and a symmetric
+/// rank-2 term u v^T + v u^T in one pass over P, with A = [W, u, v] and B = [W, -v, -u].
+void lowerProductDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>& A,
+                          const Eigen::Ref<const Eigen::MatrixXd>& B,
+                          std::vector<double>* workspace = nullptr);
+
 /// Copies the strict lower triangle of P onto the upper one (tiled so that the strided reads stay
 /// in cache): completes P after lowerRankDowndate.
 void mirrorLowerTriangle(MatrixView P);

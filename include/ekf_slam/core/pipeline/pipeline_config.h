@@ -181,15 +181,16 @@ struct PipelineConfig {
   double cekf_margin = 10.0;     ///< CompressedEkfParams::margin [m]
   double cekf_area_slack = 0.0;  ///< CompressedEkfParams::slack [m]
   /// Where the EKF's Jacobians are evaluated: "standard" (the current estimate),
-  /// "first_estimate", the FEJ-EKF (filter ekf only), or "auto": FEJ with the full EKF unless
-  /// second_order_observations says far landmarks are first seen too poorly for it (there FEJ
-  /// diverges; docs/consistency.md, "The default filter").
+  /// "first_estimate", the FEJ-EKF, "invariant", the right-invariant EKF (both filter ekf only),
+  /// or "auto": FEJ with the full EKF unless second_order_observations says far landmarks are
+  /// first seen too poorly for it (there FEJ diverges; docs/consistency.md, "The default filter").
   std::string jacobians = "auto";
   /// What "auto" (or the explicit value) resolves to.
   bool firstEstimateJacobians() const {
     return jacobians == "first_estimate" ||
            (jacobians == "auto" && filter == "ekf" && !second_order_observations);
   }
+  bool invariantJacobians() const { return jacobians == "invariant"; }
   /// Second-order terms of range-bearing observations (EKF2, docs/consistency.md): the mean and
   /// spread that the first-order prediction misses for a landmark known poorly across the line of
   /// sight, in the update, the associators' gates and the initialisation.

@@ -215,6 +215,7 @@ TEST(Evaluate, PaperPresetIsThePublishedDjnn) {
       buildPipeline(evaluationConfiguration(o, world, "ekf_slam/DJNN"), PluginlibFactory());
   EXPECT_FALSE(parts.config.delayed_sightings);
   EXPECT_FALSE(parts.config.firstEstimateJacobians());
+  EXPECT_FALSE(parts.config.invariantJacobians());
   const auto djnn = std::dynamic_pointer_cast<DJNN>(parts.associator);
   ASSERT_TRUE(djnn);
   const DJNN::Params& p = djnn->params();

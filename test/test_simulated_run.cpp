@@ -98,14 +98,20 @@ TEST(WorldParameters, LandmarkDensityIsPerGroundTheSensorCovers) {
 
 // The default filter (jacobians: auto) is the FEJ-EKF wherever the full EKF runs without
 // second-order observation terms; the worlds whose far landmarks need those terms (rrw: 3 deg at
-// 425 m, where FEJ diverges) and the compressed filter's city run the standard Jacobians. No world
-// chooses its own filter.
+// 425 m, where FEJ diverges) run the invariant EKF, and the compressed filter's city the standard
+// Jacobians. No world chooses its own filter.
 TEST(WorldParameters, DefaultFilterIsFejUnlessFarLandmarksNeedSecondOrderTerms) {
   for (const char* name :
-       {"fiducials", "fiducials_lattice", "arena", "djnn_weak", "hybrid", "aekf"})
+       {"fiducials", "fiducials_lattice", "arena", "djnn_weak", "hybrid", "aekf"}) {
     EXPECT_TRUE(sim::pipelineConfigFor(sim::makeWorld(name)).firstEstimateJacobians()) << name;
-  for (const char* name : {"rrw_noise_1", "rrw_occlusion_2", "city"})
+    EXPECT_FALSE(sim::pipelineConfigFor(sim::makeWorld(name)).invariantJacobians()) << name;
+  }
+  for (const char* name : {"rrw_noise_1", "rrw_occlusion_2"}) {
     EXPECT_FALSE(sim::pipelineConfigFor(sim::makeWorld(name)).firstEstimateJacobians()) << name;
+    EXPECT_TRUE(sim::pipelineConfigFor(sim::makeWorld(name)).invariantJacobians()) << name;
+  }
+  EXPECT_FALSE(sim::pipelineConfigFor(sim::makeWorld("city")).firstEstimateJacobians());
+  EXPECT_FALSE(sim::pipelineConfigFor(sim::makeWorld("city")).invariantJacobians());
   for (const std::string& name : sim::worldNames())
     EXPECT_EQ(sim::pipelineParametersFor(sim::makeWorld(name)).count("jacobians"), 0u) << name;
 }

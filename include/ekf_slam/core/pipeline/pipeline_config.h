@@ -182,15 +182,20 @@ struct PipelineConfig {
   double cekf_area_slack = 0.0;  ///< CompressedEkfParams::slack [m]
   /// Where the EKF's Jacobians are evaluated: "standard" (the current estimate),
   /// "first_estimate", the FEJ-EKF, "invariant", the right-invariant EKF (both filter ekf only),
-  /// or "auto": FEJ with the full EKF unless second_order_observations says far landmarks are
-  /// first seen too poorly for it (there FEJ diverges; docs/consistency.md, "The default filter").
+  /// or "auto": with the full EKF, FEJ unless second_order_observations says far landmarks are
+  /// first seen too poorly for a first estimate (there FEJ diverges), and there the invariant
+  /// EKF, which needs none; the standard Jacobians with the compressed EKF
+  /// (docs/consistency.md, "The default filter").
   std::string jacobians = "auto";
   /// What "auto" (or the explicit value) resolves to.
   bool firstEstimateJacobians() const {
     return jacobians == "first_estimate" ||
            (jacobians == "auto" && filter == "ekf" && !second_order_observations);
   }
-  bool invariantJacobians() const { return jacobians == "invariant"; }
+  bool invariantJacobians() const {
+    return jacobians == "invariant" ||
+           (jacobians == "auto" && filter == "ekf" && second_order_observations);
+  }
   /// Second-order terms of range-bearing observations (EKF2, docs/consistency.md): the mean and
   /// spread that the first-order prediction misses for a landmark known poorly across the line of
   /// sight, in the update, the associators' gates and the initialisation.

@@ -73,6 +73,13 @@ class Search {
     current_.assign(order_.size(), -1);
     pairs_.clear();
     values_.clear();
+    const Eigen::Index rows = 2 * static_cast<Eigen::Index>(order_.size());
+    if (L_.rows() < rows) {
+      L_.resize(rows, rows);
+      y_.resize(rows);
+      cross_.resize(rows, 2);
+    }
+    joint_cost_.assign(order_.size() + 1, 0.0);
     descend(0, 0.0, 0.0, 0.0);
     *nodes += nodes_;
     if (found_) {
@@ -115,13 +122,46 @@ class Search {
       if (used) continue;
       pairs_.emplace_back(o.obs, o.landmark);
       values_.push_back(o.value);
-      const double c = jointInnovationCost(ctx_, pairs_) +
-                       log_2pi2_ * static_cast<double>(pairs_.size()) + nulls + charged + o.cost;
+      const double c = extendJointCost() + log_2pi2_ * static_cast<double>(pairs_.size()) + nulls +
+                       charged + o.cost;
       descend(d + 1, c, nulls, charged + o.cost);
       pairs_.pop_back();
       values_.pop_back();
     }
     current_[k] = -1;
+  }
+
+  // jointInnovationCost of pairs_, from that of pairs_ without its last pairing: the joint
+  // innovation's Cholesky factor L and y = L^-1 v along the search path gain two rows,
+  // B = L^-1 C (C the new pairing's covariance with the others), L22 = chol(D - B^T B) and
+  // y2 = L22^-1 (v_new - B^T y). O(p^2) per node where building S and factoring it is O(p^3).
+  double extendJointCost() {
+    const Eigen::Index p = static_cast<Eigen::Index>(pairs_.size()) - 1, r = 2 * p;
+    const auto [obs, lm] = pairs_.back();
+    const Observation& o = ctx_.observations()[obs];
+    const Eigen::Vector2d v =
+        RangeBearingModel::innovation(o.z, ctx_.prediction(lm, o.kind).z_hat, o.kind);
+    Eigen::Matrix2d D = ctx_.innovationCovariance(obs, lm, obs, lm);
+    D = 0.5 * (D + D.transpose()).eval();
+    auto B = cross_.topRows(r);
+    for (Eigen::Index a = 0; a < p; ++a) {
+      B.middleRows<2>(2 * a) =
+          ctx_.innovationCovariance(pairs_[a].first, pairs_[a].second, obs, lm);
+    }
+    L_.topLeftCorner(r, r).triangularView<Eigen::Lower>().solveInPlace(B);
+    const Eigen::Matrix2d Sc = D - B.transpose() * B;
+    const Eigen::Vector2d w = v - B.transpose() * y_.head(r);
+    if (!(Sc(0, 0) > 0.0)) return joint_cost_[p + 1] = kInf;
+    const double l00 = std::sqrt(Sc(0, 0)), l10 = Sc(1, 0) / l00;
+    const double s11 = Sc(1, 1) - l10 * l10;
+    if (!(s11 > 0.0)) return joint_cost_[p + 1] = kInf;
+    const double l11 = std::sqrt(s11);
+    L_.block(r, 0, 2, r) = B.transpose();
+    L_.block<2, 2>(r, r) << l00, 0.0, l10, l11;
+    const double y0 = w(0) / l00, y1 = (w(1) - l10 * y0) / l11;
+    y_.segment<2>(r) << y0, y1;
+    const double c = joint_cost_[p] + y0 * y0 + y1 * y1 + 2.0 * std::log(l00) + 2.0 * std::log(l11);
+    return joint_cost_[p + 1] = std::isfinite(c) ? c : kInf;
   }
 
   /// One option of an entry: its value in the decision (landmark index, -1 for none, -2 - target)
@@ -146,6 +186,11 @@ class Search {
   std::vector<int> current_, best_;
   std::vector<std::pair<int, int>> pairs_;
   std::vector<int> values_;  ///< the values of pairs_, for the one-to-one check
+  // extendJointCost's factor along the path (rows 2 p, 2 p + 1 for pairs_[p]), the new
+  // pairing's cross-covariance, and the joint cost per path length.
+  Eigen::MatrixXd L_, cross_;
+  Eigen::VectorXd y_;
+  std::vector<double> joint_cost_;
 };
 
 }  // namespace

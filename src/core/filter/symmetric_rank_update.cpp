@@ -93,7 +93,7 @@ void lowerProductDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>&
   Vec b[kDepth * kCols];
   for (Eigen::Index k0 = 0; k0 < d; k0 += kDepth) {
     const Eigen::Index depth = std::min<Eigen::Index>(kDepth, d - k0);
-    const double* w = A.data() + k0 * lda;
+    const double* wa = A.data() + k0 * lda;
     const double* wb = B.data() + k0 * ldb;
     // A's rows in tiles, k-major within a tile: the kernel then reads one stream (O(n d), against
     // the downdate's n^2 d / 2 multiply-adds).
@@ -101,7 +101,7 @@ void lowerProductDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>&
       double* a = packed.data() + t * kRows * depth;
       const Eigen::Index i0 = t * kRows, rows = std::min<Eigen::Index>(kRows, n - i0);
       for (Eigen::Index k = 0; k < depth; ++k) {
-        const double* src = w + k * lda + i0;
+        const double* src = wa + k * lda + i0;
         for (Eigen::Index r = 0; r < kRows; ++r) a[k * kRows + r] = r < rows ? src[r] : 0.0;
       }
     }

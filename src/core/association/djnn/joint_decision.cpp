@@ -62,12 +62,11 @@ double widenedRadius(const AssociationContext& ctx, double R, double range_margi
 // joint decision would then never weigh the true hypothesis. Landmarks within three standard
 // deviations of the pose (position, and heading at the far range) that gate with an observation
 // join the candidates.
-void JointDecision::widenCandidates(const AssociationContext& ctx, double R, double range_margin,
+void JointDecision::widenCandidates(const AssociationContext& ctx, const std::vector<int>& near,
                                     double gate, LocalScan* scan) const {
-  const double radius = widenedRadius(ctx, R, range_margin);
   const int m = scan->observations();
   std::vector<int> added;
-  for (int j : ctx.landmarksNear(scan->sensor_pose.head<2>(), radius)) {
+  for (int j : near) {
     if (std::binary_search(scan->cand.begin(), scan->cand.end(), j)) continue;
     for (int i = 0; i < m; ++i) {
       if (ctx.individual(i, j).mahalanobis <= gate) {
@@ -114,6 +113,18 @@ bool JointDecision::decide(const AssociationContext& ctx, const Parts& parts, Lo
     }
     return false;
   };
+  // The landmarks the widening reaches, queried once: for the closure test when no candidate
+  // is old, and for the widening of a closure scan.
+  std::vector<int> near;
+  bool near_queried = false;
+  const auto nearby = [&]() -> const std::vector<int>& {
+    if (!near_queried) {
+      near = ctx.landmarksNear(scan->sensor_pose.head<2>(),
+                               widenedRadius(ctx, pp.sensor.max_range, pp.range_margin));
+      near_queried = true;
+    }
+    return near;
+  };
   bool old = false;
   for (int j : scan->cand) {
     if (is_old(j) && gates(j)) {
@@ -122,8 +133,7 @@ bool JointDecision::decide(const AssociationContext& ctx, const Parts& parts, Lo
     }
   }
   if (!old) {
-    for (int j : ctx.landmarksNear(scan->sensor_pose.head<2>(),
-                                   widenedRadius(ctx, pp.sensor.max_range, pp.range_margin))) {
+    for (int j : nearby()) {
       if (std::binary_search(scan->cand.begin(), scan->cand.end(), j)) continue;
       if (is_old(j) && gates(j)) {
         old = true;
@@ -135,7 +145,7 @@ bool JointDecision::decide(const AssociationContext& ctx, const Parts& parts, Lo
     endHeldStreak(&parts.confirmation, stats);
     return false;
   }
-  widenCandidates(ctx, pp.sensor.max_range, pp.range_margin, gate, scan);
+  widenCandidates(ctx, nearby(), gate, scan);
   JointOptions options;
   if (parts.remembered.on()) {
     std::vector<int> live;

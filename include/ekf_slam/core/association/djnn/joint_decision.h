@@ -60,9 +60,9 @@ class JointDecision {
   void landmarkAdded(LandmarkId id, double stamp) { last_paired_[id] = stamp; }
 
  private:
-  /// Adds to the candidates the landmarks a pose error of three standard deviations could bring
-  /// into view (sensor range R) that gate with an observation.
-  void widenCandidates(const AssociationContext& ctx, double R, double range_margin, double gate,
+  /// Adds to the candidates those of `near` (the landmarks a pose error of three standard
+  /// deviations could bring into view) that gate with an observation.
+  void widenCandidates(const AssociationContext& ctx, const std::vector<int>& near, double gate,
                        LocalScan* scan) const;
   /// A closure is no longer held: count the streak, forget the leads it kept.
   void endHeldStreak(HeldConfirmation* confirmation, DjnnStats* stats);

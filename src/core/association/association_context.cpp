@@ -116,6 +116,25 @@ Eigen::Vector2d AssociationContext::observedPosition(int obs) const {
   return model_.inverse(ekf_.pose(), obs_[obs].z, obs_[obs].kind);
 }
 
+Eigen::Vector2d AssociationContext::sightingPosition(const Eigen::Vector3d& xv,
+                                                     const Eigen::Vector2d& z,
+                                                     const Eigen::Matrix2d& R, MeasurementKind kind,
+                                                     Matrix23d* G_pose,
+                                                     Eigen::Matrix2d* cov) const {
+  Eigen::Matrix2d G_obs;
+  Eigen::Vector2d p = model_.inverse(xv, z, kind, G_pose, &G_obs);
+  *cov = G_obs * R * G_obs.transpose();
+  if (ekf_.secondOrderObservations() && kind == MeasurementKind::kRangeBearing) {
+    Eigen::Vector2d mean;
+    Eigen::Matrix2d extra;
+    RangeBearingModel::polarSecondOrder(z(0), xv(2) + model_.sensorOffset()(2) + z(1), R, &mean,
+                                        &extra);
+    p += mean;
+    *cov += extra;
+  }
+  return p;
+}
+
 Eigen::Matrix2d AssociationContext::innovationCovariance(int obs_a, int lm_a, int obs_b,
                                                          int lm_b) const {
   const Prediction& a = prediction(lm_a, obs_[obs_a].kind);

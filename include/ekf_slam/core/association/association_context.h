@@ -74,6 +74,13 @@ class AssociationContext {
   Individual individual(int obs, int landmark) const;
   /// Where an observation would put a landmark (inverse model at the current pose).
   Eigen::Vector2d observedPosition(int obs) const;
+  /// Where a return z (noise R) taken from pose xv puts a point, with G_pose = d/d xv and `cov`
+  /// the point's covariance from R. With the filter's second-order terms on, the banana of a
+  /// far return seen with coarse bearings: the mean pulled in by range sigma_b^2 / 2 and its
+  /// spread along the beam (RangeBearingModel::polarSecondOrder), which first order misses.
+  Eigen::Vector2d sightingPosition(const Eigen::Vector3d& xv, const Eigen::Vector2d& z,
+                                   const Eigen::Matrix2d& R, MeasurementKind kind,
+                                   Matrix23d* G_pose, Eigen::Matrix2d* cov) const;
 
   /// Cross-covariance block cov(v_a, v_b) of the innovations of pairs (obs_a, lm_a) and
   /// (obs_b, lm_b), through the full covariance (pose and map correlations); includes R when the

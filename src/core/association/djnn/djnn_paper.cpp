@@ -418,9 +418,7 @@ Eigen::Matrix2d DjnnPaper::sightingGate(const AssociationContext& ctx, int obs,
                                         const FeatureRules& rules, Sighting* s, double* lever_var) {
   const Observation& o = ctx.observations()[obs];
   Matrix23d G_pose;
-  Eigen::Matrix2d G_obs;
-  s->pos = ctx.model().inverse(pose, o.z, o.kind, &G_pose, &G_obs);
-  s->cov_obs = G_obs * o.R * G_obs.transpose();
+  s->pos = ctx.sightingPosition(pose, o.z, o.R, o.kind, &G_pose, &s->cov_obs);
   s->heading_lever = G_pose.col(2);
   // Gate on position: observation noise of both sightings plus the current pose covariance once
   // (an upper bound on the pose error accumulated between the sightings; using it twice would
@@ -428,14 +426,112 @@ Eigen::Matrix2d DjnnPaper::sightingGate(const AssociationContext& ctx, int obs,
   return rules.gateCovariance(s->cov_obs, G_pose, P_vv, lever_var);
 }
 
-double DjnnPaper::tentativeDistance2(const Eigen::Vector2d& pos, const Eigen::Vector2d& lever,
+namespace {
+
+// Far returns seen with coarse bearings (second_order_observations): from where it was taken, a
+// return is precise in range and known only to tens of metres across, a banana in the map frame.
+// Fused and gated as Gaussians there, the sightings on the arc pull the feature off it by
+// range sigma_b^2 / 2, several sd of the range noise, and the gate turns away the feature's own
+// sightings. Such a feature is kept in anchored polar form instead (range and world bearing from
+// the sensor position of its first sighting, where it is Gaussian) and updated like a landmark.
+bool inPolar(const AssociationContext& ctx, int obs) {
+  return ctx.ekf().secondOrderObservations() &&
+         ctx.observations()[obs].kind == MeasurementKind::kRangeBearing;
+}
+
+// The map-frame point of t's polar form, d point / d (range, bearing), and its mean and
+// covariance in the map frame (with the second-order terms of the polar form's spread).
+Eigen::Vector2d polarPoint(const Tentative& t, Eigen::Matrix2d* J) {
+  const double rho = t.polar_y(0), phi = t.polar_y(1);
+  const Eigen::Vector2d u(std::cos(phi), std::sin(phi));
+  *J << u(0), -rho * u(1), u(1), rho * u(0);
+  return t.polar_origin + rho * u;
+}
+
+void syncPolar(Tentative* t, Eigen::Vector2d* position) {
+  Eigen::Matrix2d J, extra;
+  Eigen::Vector2d mean;
+  const Eigen::Vector2d p = polarPoint(*t, &J);
+  RangeBearingModel::polarSecondOrder(t->polar_y(0), t->polar_y(1), t->polar_cov, &mean, &extra);
+  *position = p + mean;
+  t->cov = J * t->polar_cov * J.transpose() + extra;
+  t->cov = 0.5 * (t->cov + t->cov.transpose()).eval();
+}
+
+// The sighting's innovation against t's polar form, its covariance (the pose part C_pose in the
+// map frame added), and H_y = d z / d (range, bearing), H_p = d z / d point.
+void polarFormInnovation(const AssociationContext& ctx, int obs, const Tentative& t,
+                         const Eigen::Matrix2d& C_pose, Eigen::Vector2d* v, Eigen::Matrix2d* S,
+                         Eigen::Matrix2d* H_y, Eigen::Matrix2d* H_p, Eigen::Matrix2d* J) {
+  const Observation& o = ctx.observations()[obs];
+  const Eigen::Vector2d p = polarPoint(t, J);
+  Matrix23d H_pose;
+  const Eigen::Vector2d z_hat = ctx.model().predict(ctx.robotPose(), p, &H_pose, H_p);
+  *H_y = *H_p * *J;
+  *v = RangeBearingModel::innovation(o.z, z_hat);
+  *S = *H_y * t.polar_cov * H_y->transpose() + *H_p * C_pose * H_p->transpose() + o.R;
+}
+
+}  // namespace
+
+void DjnnPaper::startPolar(const AssociationContext& ctx, int obs, int slot) {
+  Tentative& t = tentatives_[slot];
+  t.polar = inPolar(ctx, obs);
+  if (!t.polar) return;
+  // Seen from one place a far return is precise in range and known only across: in polar form
+  // about that place it is Gaussian, where in the map frame it is a banana.
+  const Observation& o = ctx.observations()[obs];
+  const Eigen::Vector3d sensor = ctx.sensorPose();
+  t.polar_origin = sensor.head<2>();
+  t.polar_y << o.z(0), sensor(2) + o.z(1);
+  t.polar_cov = o.R;
+  Eigen::Vector2d position;
+  syncPolar(&t, &position);
+  tentatives_.move(slot, position);
+}
+
+double DjnnPaper::tentativeDistance2(const AssociationContext& ctx, int obs, const Sighting& s,
                                      const Eigen::Matrix2d& C, double lever_var,
                                      const Tentative& t) {
   // A heading error common to both moves each by its lever: they differ by the change of lever.
-  const Eigen::Vector2d dl = lever - t.heading_lever;
-  const Eigen::Matrix2d S = C + t.cov + lever_var * dl * dl.transpose();
-  const Eigen::Vector2d e = pos - t.position;
+  const Eigen::Vector2d dl = s.heading_lever - t.heading_lever;
+  const Eigen::Matrix2d lever = lever_var * dl * dl.transpose();
+  if (inPolar(ctx, obs) && t.polar) {
+    Eigen::Vector2d v;
+    Eigen::Matrix2d S, H_y, H_p, J;
+    polarFormInnovation(ctx, obs, t, (C - s.cov_obs) + lever, &v, &S, &H_y, &H_p, &J);
+    return v.dot(S.inverse() * v);
+  }
+  const Eigen::Matrix2d S = C + t.cov + lever;
+  const Eigen::Vector2d e = s.pos - t.position;
   return e.dot(S.inverse() * e);
+}
+
+void DjnnPaper::fuseSighting(const AssociationContext& ctx, int obs, const Sighting& s,
+                             const Eigen::Matrix2d& C, const Eigen::Matrix2d& noise, Tentative* t) {
+  Eigen::Matrix2d K_map;  // d fused / d sighting's point: how the heading lever is fused
+  Eigen::Vector2d fused;
+  if (inPolar(ctx, obs) && t->polar) {
+    Eigen::Vector2d v;
+    Eigen::Matrix2d S, H_y, H_p, J;
+    polarFormInnovation(ctx, obs, *t, noise, &v, &S, &H_y, &H_p, &J);
+    const Eigen::Matrix2d K = t->polar_cov * H_y.transpose() * S.inverse();
+    const Eigen::Matrix2d I_KH = Eigen::Matrix2d::Identity() - K * H_y;
+    const Eigen::Matrix2d R_eff = S - H_y * t->polar_cov * H_y.transpose();
+    t->polar_y += K * v;
+    t->polar_cov = I_KH * t->polar_cov * I_KH.transpose() + K * R_eff * K.transpose();
+    t->polar_cov = 0.5 * (t->polar_cov + t->polar_cov.transpose()).eval();
+    K_map = J * K * H_p;
+    syncPolar(t, &fused);
+  } else {
+    // Information-weighted on their observation noise.
+    K_map = t->cov * (t->cov + C).inverse();
+    fused = t->position + K_map * (s.pos - t->position);
+    t->cov = (Eigen::Matrix2d::Identity() - K_map) * t->cov;
+  }
+  t->heading_lever += K_map * (s.heading_lever - t->heading_lever);
+  t->cov = 0.5 * (t->cov + t->cov.transpose()).eval();
+  t->position = fused;  // the caller re-indexes (TentativeSet::move)
 }
 
 void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* scan,
@@ -472,8 +568,8 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     double lever_var = 0.0;
     const Eigen::Matrix2d C = sightingGate(ctx, i, pose, P_vv, *rules, &seen[i], &lever_var);
     for (int k = 0; k < static_cast<int>(tent_near_.size()); ++k) {
-      const double d2 = tentativeDistance2(seen[i].pos, seen[i].heading_lever, C, lever_var,
-                                           tentatives_[tent_near_[k]]);
+      const double d2 =
+          tentativeDistance2(ctx, i, seen[i], C, lever_var, tentatives_[tent_near_[k]]);
       if (d2 <= tentative_gate_) {
         pairs.push_back({d2, i, k});
       } else if (d2 <= withhold) {
@@ -498,15 +594,14 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
       // Not one static point (a slow mover): its history is void; restart from this sighting.
       restartFeature(slot, z, C, stamp, seen[cnd.obs].heading_lever, rules,
                      seen[cnd.obs].detectable);
+      startPolar(ctx, cnd.obs, slot);
       ++stats->static_restarts;
       continue;
     }
-    // Fuse the sightings (information-weighted on their observation noise).
-    const Eigen::Matrix2d K = t.cov * (t.cov + C).inverse();
-    const Eigen::Vector2d fused = t.position + K * (z - t.position);
-    t.heading_lever += K * (seen[cnd.obs].heading_lever - t.heading_lever);
-    t.cov = (Eigen::Matrix2d::Identity() - K) * t.cov;
-    t.cov = 0.5 * (t.cov + t.cov.transpose()).eval();
+    const Eigen::Vector2d before = t.position;
+    fuseSighting(ctx, cnd.obs, seen[cnd.obs], C, noise, &t);
+    const Eigen::Vector2d fused = t.position;
+    t.position = before;
     t.evidence = model_.bump(t.evidence, model_.step(true, t.cov, seen[cnd.obs].detectable));
     t.last_seen = stamp;
     tentatives_.move(slot, fused);
@@ -547,9 +642,11 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     if (!seen[i].eligible || obs_withheld_[i]) continue;  // withheld: kRejected this scan
     int slot = seen[i].slot;
     const bool born = slot < 0;
-    if (born)
+    if (born) {
       slot = startFeature(seen[i].pos, seen[i].cov_obs + noise, stamp, seen[i].heading_lever, rules,
                           seen[i].detectable);
+      startPolar(ctx, i, slot);
+    }
     rules->sighted(ctx, slot, i, born);
     const double t = tentatives_[slot].evidence;
     result->decision[i] = rules->decide(ctx, i, slot, t, t >= p_.admit_evidence - kEvidenceEps);

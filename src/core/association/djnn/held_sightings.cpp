@@ -35,7 +35,7 @@ void HeldSightings::join(const AssociationContext& ctx, const LocalScan& scan, F
     for (int slot : near) {
       const Tentative& t = set[slot];
       if (!t.alive || !t.held_birth || t.last_seen >= scan.stamp) continue;
-      const double d2 = DjnnPaper::tentativeDistance2(s.pos, s.heading_lever, C, lever_var, t);
+      const double d2 = DjnnPaper::tentativeDistance2(ctx, i, s, C, lever_var, t);
       if (d2 <= paper->tentativeGate() && d2 < best_d2) {
         best = slot;
         best_d2 = d2;

@@ -154,10 +154,10 @@ bool StaticTest::jointSightings(const AssociationContext& ctx, const Tentative& 
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(2 * m, 2 * m);
   const Eigen::Matrix2d jitter = sightingNoise();
   for (int k = 0; k < m; ++k) {
-    Eigen::Matrix2d Gz;
-    y.segment<2>(2 * k) = ctx.model().inverse(ekf.mean().segment<3>(uses[k].row), uses[k].z,
-                                              uses[k].kind, &Gx[k], &Gz);
-    S.block<2, 2>(2 * k, 2 * k) = Gz * uses[k].R * Gz.transpose() + jitter;
+    Eigen::Matrix2d cov;
+    y.segment<2>(2 * k) = ctx.sightingPosition(ekf.mean().segment<3>(uses[k].row), uses[k].z,
+                                               uses[k].R, uses[k].kind, &Gx[k], &cov);
+    S.block<2, 2>(2 * k, 2 * k) = cov + jitter;
   }
   for (int k = 0; k < m; ++k) {
     for (int l = 0; l <= k; ++l) {

@@ -53,6 +53,13 @@ struct Tentative {
   /// times the lever): a feature seen with no anchor is anchored at its timeout with it.
   Eigen::Matrix2d pose_cov = Eigen::Matrix2d::Zero();
   bool held_birth = false;  ///< started by an observation the joint decision held
+  /// Anchored polar form (second-order observations: far returns, coarse bearings): range and
+  /// world bearing of the feature from the sensor position of the run's first sighting, and
+  /// their covariance. position and cov are then its mean and covariance in the map frame.
+  bool polar = false;
+  Eigen::Vector2d polar_origin = Eigen::Vector2d::Zero();
+  Eigen::Vector2d polar_y = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d polar_cov = Eigen::Matrix2d::Zero();
   /// The latest sightings since the last (re)start, oldest first (at most
   /// StaticTest::kMaxJointSightings).
   std::vector<FeatureSighting> history;

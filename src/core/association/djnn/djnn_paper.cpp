@@ -439,8 +439,7 @@ bool inPolar(const AssociationContext& ctx, int obs) {
          ctx.observations()[obs].kind == MeasurementKind::kRangeBearing;
 }
 
-// The map-frame point of t's polar form, d point / d (range, bearing), and its mean and
-// covariance in the map frame (with the second-order terms of the polar form's spread).
+// The map-frame point of t's polar form and J = d point / d (range, bearing).
 Eigen::Vector2d polarPoint(const Tentative& t, Eigen::Matrix2d* J) {
   const double rho = t.polar_y(0), phi = t.polar_y(1);
   const Eigen::Vector2d u(std::cos(phi), std::sin(phi));
@@ -448,6 +447,8 @@ Eigen::Vector2d polarPoint(const Tentative& t, Eigen::Matrix2d* J) {
   return t.polar_origin + rho * u;
 }
 
+// t's mean and covariance in the map frame from its polar form, with the second-order terms of
+// the polar form's spread (what the static test, the index and the other rules read).
 void syncPolar(Tentative* t, Eigen::Vector2d* position) {
   Eigen::Matrix2d J, extra;
   Eigen::Vector2d mean;
@@ -465,8 +466,7 @@ void polarFormInnovation(const AssociationContext& ctx, int obs, const Tentative
                          Eigen::Matrix2d* H_y, Eigen::Matrix2d* H_p, Eigen::Matrix2d* J) {
   const Observation& o = ctx.observations()[obs];
   const Eigen::Vector2d p = polarPoint(t, J);
-  Matrix23d H_pose;
-  const Eigen::Vector2d z_hat = ctx.model().predict(ctx.robotPose(), p, &H_pose, H_p);
+  const Eigen::Vector2d z_hat = ctx.model().predict(ctx.robotPose(), p, nullptr, H_p);
   *H_y = *H_p * *J;
   *v = RangeBearingModel::innovation(o.z, z_hat);
   *S = *H_y * t.polar_cov * H_y->transpose() + *H_p * C_pose * H_p->transpose() + o.R;
@@ -507,8 +507,9 @@ double DjnnPaper::tentativeDistance2(const AssociationContext& ctx, int obs, con
   return e.dot(S.inverse() * e);
 }
 
-void DjnnPaper::fuseSighting(const AssociationContext& ctx, int obs, const Sighting& s,
-                             const Eigen::Matrix2d& C, const Eigen::Matrix2d& noise, Tentative* t) {
+Eigen::Vector2d DjnnPaper::fuseSighting(const AssociationContext& ctx, int obs, const Sighting& s,
+                                        const Eigen::Matrix2d& C, const Eigen::Matrix2d& noise,
+                                        Tentative* t) {
   Eigen::Matrix2d K_map;  // d fused / d sighting's point: how the heading lever is fused
   Eigen::Vector2d fused;
   if (inPolar(ctx, obs) && t->polar) {
@@ -522,16 +523,16 @@ void DjnnPaper::fuseSighting(const AssociationContext& ctx, int obs, const Sight
     t->polar_cov = I_KH * t->polar_cov * I_KH.transpose() + K * R_eff * K.transpose();
     t->polar_cov = 0.5 * (t->polar_cov + t->polar_cov.transpose()).eval();
     K_map = J * K * H_p;
-    syncPolar(t, &fused);
+    syncPolar(t, &fused);  // sets t->cov
   } else {
     // Information-weighted on their observation noise.
     K_map = t->cov * (t->cov + C).inverse();
     fused = t->position + K_map * (s.pos - t->position);
     t->cov = (Eigen::Matrix2d::Identity() - K_map) * t->cov;
+    t->cov = 0.5 * (t->cov + t->cov.transpose()).eval();
   }
   t->heading_lever += K_map * (s.heading_lever - t->heading_lever);
-  t->cov = 0.5 * (t->cov + t->cov.transpose()).eval();
-  t->position = fused;  // the caller re-indexes (TentativeSet::move)
+  return fused;
 }
 
 void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* scan,
@@ -598,10 +599,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
       ++stats->static_restarts;
       continue;
     }
-    const Eigen::Vector2d before = t.position;
-    fuseSighting(ctx, cnd.obs, seen[cnd.obs], C, noise, &t);
-    const Eigen::Vector2d fused = t.position;
-    t.position = before;
+    const Eigen::Vector2d fused = fuseSighting(ctx, cnd.obs, seen[cnd.obs], C, noise, &t);
     t.evidence = model_.bump(t.evidence, model_.step(true, t.cov, seen[cnd.obs].detectable));
     t.last_seen = stamp;
     tentatives_.move(slot, fused);

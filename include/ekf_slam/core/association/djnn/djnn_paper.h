@@ -187,17 +187,20 @@ class DjnnPaper {
                                       const FeatureRules& rules, Sighting* s, double* lever_var);
   /// The tentative gate's statistic d^2 of a sighting at `pos` with heading lever `lever` and
   /// gate covariance `C` (FeatureRules::gateCovariance, with its `lever_var`) against feature t.
-  /// With the filter's second-order terms on, a range-bearing sighting is gated in (range,
-  /// bearing) instead (polarDistance2), where its precise range still counts.
+  /// A feature in anchored polar form (Tentative::polar) is gated in (range, bearing) instead,
+  /// where a far return's precise range still counts.
   static double tentativeDistance2(const AssociationContext& ctx, int obs, const Sighting& s,
                                    const Eigen::Matrix2d& C, double lever_var, const Tentative& t);
-  /// Fuses sighting s of observation obs (noise C in the map frame, the jitter `noise` in it)
-  /// into t: information-weighted in the map frame, or as a measurement update of t's position
-  /// in (range, bearing) with the second-order terms (polarFuse).
-  /// Starts t's anchored polar form from observation obs where inPolar (else t.polar = false).
+  /// Starts the anchored polar form of the feature in `slot` from observation obs where the
+  /// filter's second-order terms are on and obs is a range-bearing return (else t.polar = false).
   void startPolar(const AssociationContext& ctx, int obs, int slot);
-  static void fuseSighting(const AssociationContext& ctx, int obs, const Sighting& s,
-                           const Eigen::Matrix2d& C, const Eigen::Matrix2d& noise, Tentative* t);
+  /// Fuses sighting s of observation obs (C: its noise in the map frame, `noise` the jitter in
+  /// it) into t: information-weighted in the map frame, or, in polar form, as a measurement
+  /// update in (range, bearing). Returns t's new position; the caller moves t there
+  /// (TentativeSet::move).
+  static Eigen::Vector2d fuseSighting(const AssociationContext& ctx, int obs, const Sighting& s,
+                                      const Eigen::Matrix2d& C, const Eigen::Matrix2d& noise,
+                                      Tentative* t);
 
   /// 1. The local region (eq. 10) and its valid part (eq. 7): scan->cand, cand_valid.
   void localRegion(const AssociationContext& ctx, LocalScan* scan) const;

@@ -187,13 +187,16 @@ TEST(FirstEstimateJacobians, ParameterValidated) {
   using Values = std::map<std::string, std::string>;
   // The default: FEJ with the full EKF, standard with second-order terms or the compressed EKF.
   EXPECT_EQ(readPipelineConfig(MapParameterSource()).jacobians, "auto");
-  EXPECT_TRUE(readPipelineConfig(MapParameterSource()).firstEstimateJacobians());
-  EXPECT_FALSE(readPipelineConfig(MapParameterSource(Values{{"second_order_observations", "true"}}))
-                   .firstEstimateJacobians());
-  EXPECT_FALSE(
-      readPipelineConfig(MapParameterSource(Values{{"filter", "cekf"}})).firstEstimateJacobians());
-  EXPECT_FALSE(readPipelineConfig(MapParameterSource(Values{{"jacobians", "standard"}}))
-                   .firstEstimateJacobians());
+  EXPECT_EQ(readPipelineConfig(MapParameterSource()).linearisation(),
+            Linearisation::kFirstEstimate);
+  EXPECT_NE(readPipelineConfig(MapParameterSource(Values{{"second_order_observations", "true"}}))
+                .linearisation(),
+            Linearisation::kFirstEstimate);
+  EXPECT_NE(readPipelineConfig(MapParameterSource(Values{{"filter", "cekf"}})).linearisation(),
+            Linearisation::kFirstEstimate);
+  EXPECT_NE(
+      readPipelineConfig(MapParameterSource(Values{{"jacobians", "standard"}})).linearisation(),
+      Linearisation::kFirstEstimate);
   EXPECT_EQ(
       readPipelineConfig(MapParameterSource(Values{{"jacobians", "first_estimate"}})).jacobians,
       "first_estimate");

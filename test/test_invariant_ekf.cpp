@@ -227,15 +227,18 @@ TEST(InvariantEkf, ParameterResolved) {
   using Values = std::map<std::string, std::string>;
   const auto config = [](const Values& v) { return readPipelineConfig(MapParameterSource(v)); };
   // auto: FEJ, but the invariant EKF where far landmarks need second-order terms.
-  EXPECT_FALSE(config({}).invariantJacobians());
-  EXPECT_TRUE(config({{"second_order_observations", "true"}}).invariantJacobians());
-  EXPECT_FALSE(config({{"second_order_observations", "true"}}).firstEstimateJacobians());
-  EXPECT_FALSE(
-      config({{"second_order_observations", "true"}, {"filter", "cekf"}}).invariantJacobians());
-  EXPECT_TRUE(config({{"jacobians", "invariant"}}).invariantJacobians());
-  EXPECT_FALSE(config({{"jacobians", "invariant"}}).firstEstimateJacobians());
-  EXPECT_FALSE(config({{"jacobians", "standard"}, {"second_order_observations", "true"}})
-                   .invariantJacobians());
+  EXPECT_NE(config({}).linearisation(), Linearisation::kInvariant);
+  EXPECT_EQ(config({{"second_order_observations", "true"}}).linearisation(),
+            Linearisation::kInvariant);
+  EXPECT_NE(config({{"second_order_observations", "true"}}).linearisation(),
+            Linearisation::kFirstEstimate);
+  EXPECT_NE(config({{"second_order_observations", "true"}, {"filter", "cekf"}}).linearisation(),
+            Linearisation::kInvariant);
+  EXPECT_EQ(config({{"jacobians", "invariant"}}).linearisation(), Linearisation::kInvariant);
+  EXPECT_NE(config({{"jacobians", "invariant"}}).linearisation(), Linearisation::kFirstEstimate);
+  EXPECT_NE(
+      config({{"jacobians", "standard"}, {"second_order_observations", "true"}}).linearisation(),
+      Linearisation::kInvariant);
   // The compressed EKF defers the re-expression of the whole P: refused.
   EXPECT_THROW(config({{"jacobians", "invariant"}, {"filter", "cekf"}}), ParameterError);
 }

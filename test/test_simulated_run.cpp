@@ -103,15 +103,25 @@ TEST(WorldParameters, LandmarkDensityIsPerGroundTheSensorCovers) {
 TEST(WorldParameters, DefaultFilterIsFejUnlessFarLandmarksNeedSecondOrderTerms) {
   for (const char* name :
        {"fiducials", "fiducials_lattice", "arena", "djnn_weak", "hybrid", "aekf"}) {
-    EXPECT_TRUE(sim::pipelineConfigFor(sim::makeWorld(name)).firstEstimateJacobians()) << name;
-    EXPECT_FALSE(sim::pipelineConfigFor(sim::makeWorld(name)).invariantJacobians()) << name;
+    EXPECT_EQ(sim::pipelineConfigFor(sim::makeWorld(name)).linearisation(),
+              Linearisation::kFirstEstimate)
+        << name;
+    EXPECT_NE(sim::pipelineConfigFor(sim::makeWorld(name)).linearisation(),
+              Linearisation::kInvariant)
+        << name;
   }
   for (const char* name : {"rrw_noise_1", "rrw_occlusion_2"}) {
-    EXPECT_FALSE(sim::pipelineConfigFor(sim::makeWorld(name)).firstEstimateJacobians()) << name;
-    EXPECT_TRUE(sim::pipelineConfigFor(sim::makeWorld(name)).invariantJacobians()) << name;
+    EXPECT_NE(sim::pipelineConfigFor(sim::makeWorld(name)).linearisation(),
+              Linearisation::kFirstEstimate)
+        << name;
+    EXPECT_EQ(sim::pipelineConfigFor(sim::makeWorld(name)).linearisation(),
+              Linearisation::kInvariant)
+        << name;
   }
-  EXPECT_FALSE(sim::pipelineConfigFor(sim::makeWorld("city")).firstEstimateJacobians());
-  EXPECT_FALSE(sim::pipelineConfigFor(sim::makeWorld("city")).invariantJacobians());
+  EXPECT_NE(sim::pipelineConfigFor(sim::makeWorld("city")).linearisation(),
+            Linearisation::kFirstEstimate);
+  EXPECT_NE(sim::pipelineConfigFor(sim::makeWorld("city")).linearisation(),
+            Linearisation::kInvariant);
   for (const std::string& name : sim::worldNames())
     EXPECT_EQ(sim::pipelineParametersFor(sim::makeWorld(name)).count("jacobians"), 0u) << name;
 }

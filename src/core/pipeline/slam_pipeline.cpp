@@ -57,9 +57,7 @@ SlamPipeline::SlamPipeline(const PipelineConfig& config,
   if (!associator_) throw std::invalid_argument("SlamPipeline: no associator given");
   history_.configure(config_.lost_onset_scans, config_.lost_onset_snapshots);
   EkfSlam& ekf = filter_.ekf();
-  ekf.setLinearisation(config_.firstEstimateJacobians() ? Linearisation::kFirstEstimate
-                       : config_.invariantJacobians()   ? Linearisation::kInvariant
-                                                        : Linearisation::kStandard);
+  ekf.setLinearisation(config_.linearisation());
   ekf.setSecondOrderObservations(config_.second_order_observations);
   reset();
   counters_.resets = 0;

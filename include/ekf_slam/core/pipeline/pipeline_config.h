@@ -13,6 +13,7 @@
 #include "ekf_slam/core/common/parameters.h"
 #include "ekf_slam/core/common/sensor_model.h"
 #include "ekf_slam/core/feature_extraction/tree_extractor.h"
+#include "ekf_slam/core/filter/ekf_slam.h"  // Linearisation
 #include "ekf_slam/core/filter/motion_models.h"
 #include "ekf_slam/core/filter/odometry_correction.h"
 
@@ -188,13 +189,12 @@ struct PipelineConfig {
   /// (docs/consistency.md, "The default filter").
   std::string jacobians = "auto";
   /// What "auto" (or the explicit value) resolves to.
-  bool firstEstimateJacobians() const {
-    return jacobians == "first_estimate" ||
-           (jacobians == "auto" && filter == "ekf" && !second_order_observations);
-  }
-  bool invariantJacobians() const {
-    return jacobians == "invariant" ||
-           (jacobians == "auto" && filter == "ekf" && second_order_observations);
+  Linearisation linearisation() const {
+    if (jacobians == "first_estimate") return Linearisation::kFirstEstimate;
+    if (jacobians == "invariant") return Linearisation::kInvariant;
+    if (jacobians == "auto" && filter == "ekf")
+      return second_order_observations ? Linearisation::kInvariant : Linearisation::kFirstEstimate;
+    return Linearisation::kStandard;
   }
   /// Second-order terms of range-bearing observations (EKF2, docs/consistency.md): the mean and
   /// spread that the first-order prediction misses for a landmark known poorly across the line of

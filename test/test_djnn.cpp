@@ -592,7 +592,6 @@ TEST(DJNN, ParametersAreValidatedAndNamed) {
   EXPECT_TRUE(fails({{"ambiguity_probability", "0.9"}}, "ambiguity_probability"));
   EXPECT_TRUE(fails({{"field_of_view", "0"}}, "field_of_view"));
   EXPECT_TRUE(fails({{"static_probability", "1"}}, "static_probability"));
-  EXPECT_TRUE(fails({{"static_jitter", "-0.1"}}, "static_jitter"));
   EXPECT_TRUE(fails({{"bias_probability", "0"}}, "bias_probability"));
   EXPECT_TRUE(fails({{"bias_window", "0.5"}}, "bias_window"));
   EXPECT_TRUE(fails({{"bias_min_pairings", "0"}}, "bias_min_pairings"));
@@ -610,7 +609,6 @@ TEST(DJNN, DefaultsAreTheDocumentedOnes) {
   EXPECT_EQ(d.params().paper.admit_evidence, 7);
   EXPECT_TRUE(d.params().static_test.static_test);
   EXPECT_EQ(d.params().static_test.static_probability, 0.9);
-  EXPECT_EQ(d.params().static_test.static_jitter, 0.0);
   EXPECT_TRUE(d.params().bias.bias_test);
   EXPECT_EQ(d.params().bias.bias_probability, 0.999);
   EXPECT_EQ(d.params().bias.bias_window, 5.0);
@@ -674,19 +672,6 @@ TEST(DJNN, SlowMoverIsNotAdmittedWithTheStaticTest) {
   const auto with_test = run(true);
   EXPECT_EQ(with_test.first, 0);
   EXPECT_GT(with_test.second, 0u);
-}
-
-TEST(DJNN, StaticJitterWidensTheStaticTest) {
-  // The same slow mover fits a static point once each sighting may be off by 0.5 m.
-  Scene s = staticTestScene();
-  DJNN d = makeDjnn({{"static_test", "true"}, {"admit_evidence", "5"}, {"static_jitter", "0.5"}});
-  Decision last = Decision::kRejected;
-  for (int k = 0; k < 5; ++k) {
-    clearScan(&s);
-    s.observePoint({10.0, -0.6 + 0.1 * k});
-    last = d.associate(s.context(0.2 * k)).decision[0];
-  }
-  EXPECT_EQ(last, Decision::kNew);
 }
 
 // A landmark that entered the map from a mover: each return is a little further along. The bias

@@ -35,11 +35,6 @@ void DJNN::configure(const ParameterSource& user) {
   Params p;
   AmbiguityGate ambiguity;
   ambiguity.read(r, paper.individual_probability);
-  p.max_evidence = r.integer("max_evidence", 0, 0, kMaxEvidence);
-  if (p.max_evidence != 0 &&
-      p.max_evidence < std::max(paper.admit_evidence, paper.initial_evidence)) {
-    r.fail("max_evidence", "must be 0 (unbounded) or at least admit_evidence and initial_evidence");
-  }
   StaticTest static_test;
   static_test.read(r);
   FollowPose follow_pose;
@@ -104,7 +99,7 @@ void DJNN::configure(const ParameterSource& user) {
   beam_spacing_ = beam_spacing;
   held_sightings_ = held_sightings;
 
-  paper_.configure(p_.paper, p_.max_evidence);
+  paper_.configure(p_.paper);
   density_test_.configure(p_.paper.sensor);
   static_test_.configure(p_.paper.admit_evidence);
   bias_test_.configure();
@@ -310,10 +305,9 @@ void DJNN::poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& po
 
 void DJNN::landmarkLoaded(LandmarkId id, std::uint32_t times_observed) {
   // A saved landmark was confirmed that many times: it survives as many misses (the evidence it
-  // would have had with no miss), at least the admission level, within the cap.
+  // would have had with no miss), at least the admission level.
   long t = std::max<long>(
       {static_cast<long>(times_observed), p_.paper.admit_evidence, p_.paper.initial_evidence});
-  if (p_.max_evidence > 0) t = std::min<long>(t, p_.max_evidence);
   paper_.setEvidence(id, static_cast<double>(std::min<long>(t, kMaxEvidence)));
 }
 
@@ -330,11 +324,11 @@ bool DJNN::landmarkFromLostScans(LandmarkId id, const Eigen::Matrix2d& cov,
   for (const LostLook& l : looks) {
     if (l.seen) {
       const double r = model.step(true, cov);
-      t = alive ? model.bump(t, r) : r;
+      t = alive ? t + r : r;
       alive = true;
       admitted = admitted || t >= p_.paper.admit_evidence - eps;
     } else if (alive && paper_.inPenaltyRegion(l.in_sensor)) {
-      t = model.bump(t, model.step(false, cov));
+      t += model.step(false, cov);
       if (t <= p_.paper.remove_evidence + eps) alive = admitted = false;
     }
   }
@@ -350,9 +344,9 @@ bool DJNN::landmarkOverLostScans(LandmarkId id, const Eigen::Matrix2d& cov,
   double t = paper_.evidenceValue(id);
   for (const LostLook& l : looks) {
     if (l.seen) {
-      t = model.bump(t, model.step(true, cov));
+      t += model.step(true, cov);
     } else if (paper_.inPenaltyRegion(l.in_sensor)) {
-      t = model.bump(t, model.step(false, cov));
+      t += model.step(false, cov);
     } else {
       continue;
     }

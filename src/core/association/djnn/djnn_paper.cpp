@@ -59,10 +59,9 @@ void DjnnPaperParams::read(const ParameterReader& r) {
 
 // --- evidence steps ------------------------------------------------------------------------------
 
-void EvidenceModel::configure(const SensorModel& sensor, double tentative_gate, int max_evidence) {
+void EvidenceModel::configure(const SensorModel& sensor, double tentative_gate) {
   sensor_ = sensor;
   tentative_gate_ = tentative_gate;
-  max_evidence_ = max_evidence;
 }
 
 double EvidenceModel::step(bool hit, const Eigen::Matrix2d& C, double detectable) const {
@@ -78,19 +77,14 @@ double EvidenceModel::step(bool hit, const Eigen::Matrix2d& C, double detectable
   return hit ? 2.0 * (1.0 - tau) : -2.0 * tau;
 }
 
-double EvidenceModel::bump(double evidence, double r) const {
-  const double t = evidence + r;
-  return max_evidence_ > 0 ? std::min(t, static_cast<double>(max_evidence_)) : t;
-}
-
 // --- configuration -------------------------------------------------------------------------------
 
-void DjnnPaper::configure(const DjnnPaperParams& params, int max_evidence) {
+void DjnnPaper::configure(const DjnnPaperParams& params) {
   p_ = params;
   gate_ = chi2Quantile(p_.individual_probability, 2);
   wide_gate_ = p_.wide_gate_factor * gate_;
   tentative_gate_ = chi2Quantile(p_.tentative_gate_probability, 2);
-  model_.configure(p_.sensor, tentative_gate_, max_evidence);
+  model_.configure(p_.sensor, tentative_gate_);
   tentatives_.setCell(0.5 * (p_.sensor.max_range + p_.range_margin));
   if (p_.penalty_region == "valid") {
     penalty_radial_ = -p_.range_margin;
@@ -358,7 +352,7 @@ void DjnnPaper::countMapEvidence(const AssociationContext& ctx, const LocalScan&
         }
       }
     }
-    it->second = model_.bump(it->second, r);
+    it->second += r;
     if (it->second <= p_.remove_evidence + kEvidenceEps) {
       result->remove.push_back(id);
       evidence_.erase(it);
@@ -392,7 +386,7 @@ void DjnnPaper::restartFeature(int slot, const Eigen::Vector2d& z, const Eigen::
   t.key = next_key_++;
   t.cov = C;
   t.heading_lever = heading_lever;
-  t.evidence = model_.bump(0.0, model_.step(true, C, detectable));  // seen now
+  t.evidence = model_.step(true, C, detectable);  // seen now
   t.last_seen = stamp;
   t.sightings = 1;
   t.residual = 0.0;
@@ -508,14 +502,13 @@ double DjnnPaper::tentativeDistance2(const AssociationContext& ctx, int obs, con
 }
 
 Eigen::Vector2d DjnnPaper::fuseSighting(const AssociationContext& ctx, int obs, const Sighting& s,
-                                        const Eigen::Matrix2d& C, const Eigen::Matrix2d& noise,
-                                        Tentative* t) {
+                                        const Eigen::Matrix2d& C, Tentative* t) {
   Eigen::Matrix2d K_map;  // d fused / d sighting's point: how the heading lever is fused
   Eigen::Vector2d fused;
   if (inPolar(ctx, obs) && t->polar) {
     Eigen::Vector2d v;
     Eigen::Matrix2d S, H_y, H_p, J;
-    polarFormInnovation(ctx, obs, *t, noise, &v, &S, &H_y, &H_p, &J);
+    polarFormInnovation(ctx, obs, *t, Eigen::Matrix2d::Zero(), &v, &S, &H_y, &H_p, &J);
     const Eigen::Matrix2d K = t->polar_cov * H_y.transpose() * S.inverse();
     const Eigen::Matrix2d I_KH = Eigen::Matrix2d::Identity() - K * H_y;
     const Eigen::Matrix2d R_eff = S - H_y * t->polar_cov * H_y.transpose();
@@ -542,7 +535,6 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
   const double stamp = ctx.stamp();
   const Eigen::Vector3d pose = ctx.robotPose();
   const Eigen::Matrix3d P_vv = ctx.ekf().poseCovariance();
-  const Eigen::Matrix2d noise = rules->sightingNoise();
   tentatives_.query(scan->sensor_pose.head<2>(), p_.sensor.max_range + p_.range_margin,
                     &tent_near_);
   tent_hit_.assign(tent_near_.size(), 0);
@@ -590,7 +582,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     seen[cnd.obs].slot = slot;
     Tentative& t = tentatives_[slot];
     const Eigen::Vector2d& z = seen[cnd.obs].pos;
-    const Eigen::Matrix2d C = seen[cnd.obs].cov_obs + noise;
+    const Eigen::Matrix2d& C = seen[cnd.obs].cov_obs;
     if (!rules->stillStatic(ctx, cnd.obs, &t, seen[cnd.obs], C, stamp)) {
       // Not one static point (a slow mover): its history is void; restart from this sighting.
       restartFeature(slot, z, C, stamp, seen[cnd.obs].heading_lever, rules,
@@ -599,8 +591,8 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
       ++stats->static_restarts;
       continue;
     }
-    const Eigen::Vector2d fused = fuseSighting(ctx, cnd.obs, seen[cnd.obs], C, noise, &t);
-    t.evidence = model_.bump(t.evidence, model_.step(true, t.cov, seen[cnd.obs].detectable));
+    const Eigen::Vector2d fused = fuseSighting(ctx, cnd.obs, seen[cnd.obs], C, &t);
+    t.evidence += model_.step(true, t.cov, seen[cnd.obs].detectable);
     t.last_seen = stamp;
     tentatives_.move(slot, fused);
   }
@@ -626,7 +618,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     const Eigen::Vector2d ps = inSensorFrame(*scan, t.position);
     if (inPenaltyRegion(ps) && !tent_withheld_[k]) {
       const double detectable = rules->detectable(ctx, ps.norm());
-      t.evidence = model_.bump(t.evidence, model_.step(false, t.cov, detectable));
+      t.evidence += model_.step(false, t.cov, detectable);
     }
     const bool stale = p_.tentative_timeout > 0.0 && stamp - t.last_seen > p_.tentative_timeout;
     if (t.evidence <= p_.remove_evidence + kEvidenceEps || stale) {
@@ -641,7 +633,7 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
     int slot = seen[i].slot;
     const bool born = slot < 0;
     if (born) {
-      slot = startFeature(seen[i].pos, seen[i].cov_obs + noise, stamp, seen[i].heading_lever, rules,
+      slot = startFeature(seen[i].pos, seen[i].cov_obs, stamp, seen[i].heading_lever, rules,
                           seen[i].detectable);
       startPolar(ctx, i, slot);
     }

@@ -13,7 +13,6 @@ void StaticTest::read(const ParameterReader& r) {
   const Params def;
   p_.static_test = r.flag("static_test", def.static_test);
   p_.static_probability = r.probability("static_probability", def.static_probability);
-  p_.static_jitter = r.nonNegative("static_jitter", def.static_jitter);
   p_.static_heading = r.flag("static_heading", def.static_heading);
   p_.static_min_speed = r.nonNegative("static_min_speed", def.static_min_speed);
   p_.learn_mover_speed = r.flag("learn_mover_speed", def.learn_mover_speed);
@@ -56,11 +55,6 @@ void StaticTest::configure(int admit_evidence) {
 
 void StaticTest::beginScan(const Eigen::Matrix3d& P_vv) {
   heading_var_ = p_.static_heading ? std::max(0.0, P_vv(2, 2)) : 0.0;
-}
-
-Eigen::Matrix2d StaticTest::sightingNoise() const {
-  return p_.static_test ? (p_.static_jitter * p_.static_jitter * Eigen::Matrix2d::Identity()).eval()
-                        : Eigen::Matrix2d::Zero().eval();
 }
 
 bool StaticTest::stillStatic(Tentative* t, const Eigen::Vector2d& z,
@@ -152,12 +146,11 @@ bool StaticTest::jointSightings(const AssociationContext& ctx, const Tentative& 
   Eigen::VectorXd y(2 * m);
   std::vector<Matrix23d> Gx(m);
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(2 * m, 2 * m);
-  const Eigen::Matrix2d jitter = sightingNoise();
   for (int k = 0; k < m; ++k) {
     Eigen::Matrix2d cov;
     y.segment<2>(2 * k) = ctx.sightingPosition(ekf.mean().segment<3>(uses[k].row), uses[k].z,
                                                uses[k].R, uses[k].kind, &Gx[k], &cov);
-    S.block<2, 2>(2 * k, 2 * k) = cov + jitter;
+    S.block<2, 2>(2 * k, 2 * k) = cov;
   }
   for (int k = 0; k < m; ++k) {
     for (int l = 0; l <= k; ++l) {

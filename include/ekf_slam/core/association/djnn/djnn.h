@@ -3,7 +3,7 @@
 // package's extensions, each a named part with its own parameters, switched on by configuration:
 //
 //   part                 parameters                      failure it fixes (docs/djnn.md)
-//   EvidenceModel        detection_probability, clutter_density, max_evidence
+//   EvidenceModel        detection_probability, clutter_density
 //                                                        sensors that miss landmarks or see clutter
 //   AmbiguityGate        ambiguity_probability           duplicates of a landmark left unpaired
 //                        tentative_ambiguity             a tentative feature split in two by one
@@ -66,7 +66,6 @@ class DJNN : public DataAssociation, private FeatureRules {
   /// Every part's parameters (names as read in configure(); defaults in docs/djnn.md).
   struct Params {
     DjnnPaperParams paper;
-    int max_evidence = 0;  ///< cap on T (0: unbounded, as in the paper)
     AmbiguityGate::Params ambiguity;
     StaticTest::Params static_test;
     BiasTest::Params bias;
@@ -112,7 +111,6 @@ class DJNN : public DataAssociation, private FeatureRules {
   // FeatureRules: the extensions' share of the paper's tentative-feature step.
   Eigen::Matrix2d gateCovariance(const Eigen::Matrix2d& cov_obs, const Matrix23d& G_pose,
                                  const Eigen::Matrix3d& P_vv, double* lever_var) const override;
-  Eigen::Matrix2d sightingNoise() const override { return static_test_.sightingNoise(); }
   double detectable(const AssociationContext& ctx, double range) const override {
     return beam_spacing_.detectable(ctx, range);
   }

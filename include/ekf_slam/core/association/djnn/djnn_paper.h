@@ -96,26 +96,22 @@ struct DjnnPaperParams {
   void read(const ParameterReader& r);
 };
 
-/// The evidence steps r_k of eq. 9, and the cap on T (max_evidence, 0: unbounded as in the
-/// paper). The paper's counter tests "hit rate above 1/2", the midpoint between the hit rate of
-/// a real landmark (1) and of a pseudo-feature (0). With detection probability P_D and a
-/// false-detection chance P_F in the feature's gate the threshold becomes the midpoint
-/// tau = (P_D + P_F) / 2, and T = 2 (hits - tau scans): the same units, so admit / remove
+/// The evidence steps r_k of eq. 9. The paper's counter tests "hit rate above 1/2", the midpoint
+/// between the hit rate of a real landmark (1) and of a pseudo-feature (0). With detection
+/// probability P_D and a false-detection chance P_F in the feature's gate the threshold becomes the
+/// midpoint tau = (P_D + P_F) / 2, and T = 2 (hits - tau scans): the same units, so admit / remove
 /// thresholds keep their meaning (docs/djnn.md, "Detection probability").
 class EvidenceModel {
  public:
-  void configure(const SensorModel& sensor, double tentative_gate, int max_evidence);
+  void configure(const SensorModel& sensor, double tentative_gate);
   /// r_k of a feature seen (hit) or missed, with position covariance C: 2 (1 - tau), -2 tau;
   /// +1 / -1 for P_D = 1 without clutter. `detectable`: the share of P_D the sensor had at the
   /// feature (the beams' spacing, BeamSpacingMisses); P_D times it is this feature's P_D.
   double step(bool hit, const Eigen::Matrix2d& C, double detectable = 1.0) const;
-  /// T + r, within the cap.
-  double bump(double evidence, double r) const;
 
  private:
   SensorModel sensor_;
   double tentative_gate_ = 0.0;
-  int max_evidence_ = 0;
 };
 
 /// An unpaired observation of the scan as a candidate feature (eq. 9).
@@ -137,8 +133,6 @@ class FeatureRules {
   /// covariance G_x P G_x^T once, no lever term).
   virtual Eigen::Matrix2d gateCovariance(const Eigen::Matrix2d& cov_obs, const Matrix23d& G_pose,
                                          const Eigen::Matrix3d& P_vv, double* lever_var) const = 0;
-  /// Noise added to each sighting for the feature's fusion (the paper: none).
-  virtual Eigen::Matrix2d sightingNoise() const = 0;
   /// The share of P_D the sensor had at `range` [m] in this scan (the paper: 1).
   virtual double detectable(const AssociationContext& ctx, double range) const = 0;
   /// A gate wider than the tentative one (chi2 value; the paper: 0, none): a sighting within it
@@ -163,8 +157,7 @@ class FeatureRules {
 
 class DjnnPaper {
  public:
-  /// max_evidence: the cap on T (EvidenceModel).
-  void configure(const DjnnPaperParams& params, int max_evidence);
+  void configure(const DjnnPaperParams& params);
   const DjnnPaperParams& params() const { return p_; }
   double gate() const { return gate_; }
   double tentativeGate() const { return tentative_gate_; }
@@ -194,13 +187,11 @@ class DjnnPaper {
   /// Starts the anchored polar form of the feature in `slot` from observation obs where the
   /// filter's second-order terms are on and obs is a range-bearing return (else t.polar = false).
   void startPolar(const AssociationContext& ctx, int obs, int slot);
-  /// Fuses sighting s of observation obs (C: its noise in the map frame, `noise` the jitter in
-  /// it) into t: information-weighted in the map frame, or, in polar form, as a measurement
-  /// update in (range, bearing). Returns t's new position; the caller moves t there
-  /// (TentativeSet::move).
+  /// Fuses sighting s of observation obs (C: its noise in the map frame) into t:
+  /// information-weighted in the map frame, or, in polar form, as a measurement update in (range,
+  /// bearing). Returns t's new position; the caller moves t there (TentativeSet::move).
   static Eigen::Vector2d fuseSighting(const AssociationContext& ctx, int obs, const Sighting& s,
-                                      const Eigen::Matrix2d& C, const Eigen::Matrix2d& noise,
-                                      Tentative* t);
+                                      const Eigen::Matrix2d& C, Tentative* t);
 
   /// 1. The local region (eq. 10) and its valid part (eq. 7): scan->cand, cand_valid.
   void localRegion(const AssociationContext& ctx, LocalScan* scan) const;

@@ -2,13 +2,12 @@
 // tentative feature's sightings must fit one static point (sum of normalised residuals about
 // their fused position <= chi2(2 (k - 1), static_probability)), else it restarts from the latest
 // sighting; admission waits for admit_evidence sightings of one static point. Options:
-// static_jitter (pose jitter per sighting), static_heading (a heading error common to the
-// sightings), static_min_speed (a constant-velocity fit of the sightings: its velocity must pass
-// chi2(2), and admission waits until an object at that speed would have shown its motion),
-// learn_mover_speed (without static_min_speed: the same test and wait at a speed learned from the
-// landmarks that left the map unestablished, the movers that got in, once mover_speed_samples of
-// them did), admission_velocity_test (at admission, the sightings' joint constant-velocity fit
-// must show no velocity at admission_velocity_probability).
+// static_heading (a heading error common to the sightings), static_min_speed (a constant-velocity
+// fit of the sightings: its velocity must pass chi2(2), and admission waits until an object at that
+// speed would have shown its motion), learn_mover_speed (without static_min_speed: the same test
+// and wait at a speed learned from the landmarks that left the map unestablished, the movers that
+// got in, once mover_speed_samples of them did), admission_velocity_test (at admission, the
+// sightings' joint constant-velocity fit must show no velocity at admission_velocity_probability).
 #pragma once
 
 #include <vector>
@@ -27,7 +26,6 @@ class StaticTest {
   struct Params {
     bool static_test = true;
     double static_probability = 0.9;
-    double static_jitter = 0.0;  ///< [m] isotropic std dev per sighting
     bool static_heading = false;
     double static_min_speed = 0.0;  ///< [m/s]; 0: off
     /// With static_min_speed 0: estimate it from what was seen moving (docs/djnn.md).
@@ -55,8 +53,6 @@ class StaticTest {
 
   /// The pose covariance of this scan (static_heading reads its heading variance).
   void beginScan(const Eigen::Matrix3d& P_vv);
-  /// Noise added to each sighting (static_jitter).
-  Eigen::Matrix2d sightingNoise() const;
   /// Sightings kept per feature for the joint test.
   static constexpr int kMaxJointSightings = 12;
 
@@ -71,8 +67,8 @@ class StaticTest {
   /// The joint test's statistic: t's earlier sightings that have a pose clone and observation
   /// `obs` at the current pose, their positions from the poses' current estimates, about one
   /// static point, by generalised least squares with the poses' joint covariance (their
-  /// correlations cancel the common pose error; each sighting's noise G_z R G_z^T plus
-  /// static_jitter). *dof = 2 (m - 1) for m sightings; false when fewer than two.
+  /// correlations cancel the common pose error; each sighting's noise G_z R G_z^T). *dof = 2 (m -
+  /// 1) for m sightings; false when fewer than two.
   bool jointStatistic(const AssociationContext& ctx, const Tentative& t, int obs, double* statistic,
                       int* dof) const;
   /// The same sightings fitted with a constant velocity, z_k = p + (t_k - t_0) v: the velocity

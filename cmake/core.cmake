@@ -44,7 +44,6 @@ add_library(ekf_slam_core
   src/core/association/djnn/static_test.cpp
   src/core/association/djnn/bias_test.cpp
   src/core/association/djnn/follow_pose.cpp
-  src/core/association/djnn/shift_test.cpp
   src/core/association/djnn/density_test.cpp
   src/core/association/djnn/missed_detection_profile.cpp
   src/core/association/djnn/landmark_spacing.cpp

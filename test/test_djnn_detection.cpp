@@ -225,14 +225,12 @@ TEST(DJNNDetection, MinimumRangeAndPolygonBoundThePenaltyRegion) {
 TEST(DJNNDetection, MissedDetectionProfileIsOnBelowDetectionProbabilityOne) {
   const DJNN all_seen = makeDjnn();
   EXPECT_FALSE(all_seen.params().follow_pose.tentative_follow_pose);
-  EXPECT_FALSE(all_seen.params().shift.shift_test);
   EXPECT_FALSE(all_seen.params().density.density_test);
   EXPECT_EQ(all_seen.params().bias.bias_keep_pairings, 0);
 
   const DJNN camera = makeDjnn({{"detection_probability", "0.7"}});
   EXPECT_TRUE(camera.params().follow_pose.tentative_follow_pose);
   EXPECT_TRUE(camera.params().static_test.static_heading);
-  EXPECT_TRUE(camera.params().shift.shift_test);
   EXPECT_TRUE(camera.params().density.density_test);
   EXPECT_EQ(camera.params().bias.bias_keep_pairings, 10);
   EXPECT_EQ(camera.params().remembered.remembered_sightings, 2);
@@ -244,7 +242,7 @@ TEST(DJNNDetection, MissedDetectionProfileIsOnBelowDetectionProbabilityOne) {
                               {"held_confirmations", "0"}});
   EXPECT_FALSE(told.params().follow_pose.tentative_follow_pose);
   EXPECT_EQ(told.params().confirmation.held_confirmations, 0);
-  EXPECT_TRUE(told.params().shift.shift_test);
+  EXPECT_TRUE(told.params().density.density_test);
 
   const DJNN bare =
       makeDjnn({{"detection_probability", "0.7"}, {"missed_detection_profile", "false"}});

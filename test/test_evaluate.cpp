@@ -225,7 +225,6 @@ TEST(Evaluate, PaperPresetIsThePublishedDjnn) {
   EXPECT_FALSE(p.static_test.static_test);
   EXPECT_FALSE(p.bias.bias_test);
   EXPECT_FALSE(p.follow_pose.tentative_follow_pose);
-  EXPECT_FALSE(p.shift.shift_test);
   EXPECT_EQ(p.density.landmark_density, 0.0);
   EXPECT_FALSE(p.density.estimate_landmark_density);
   EXPECT_EQ(p.joint.loop_closure_age, 0.0);

@@ -228,11 +228,9 @@ std::map<std::string, std::string> oracleDjnnParameters(const World& world) {
   if (world.movers.count > 0) p["static_min_speed"] = text(world.movers.min_speed);
   // A camera that misses landmarks keeps many of them tentative while the pose is corrected: the
   // features follow the corrections and the static test allows for the heading error. Pairings
-  // are weighed jointly against a shifted scan and against unmapped landmarks at their true
-  // density where the sensor looks.
+  // are weighed jointly against unmapped landmarks at their true density where the sensor looks.
   p["tentative_follow_pose"] = "true";
   p["static_heading"] = "true";
-  p["shift_test"] = "true";
   if (!world.landmarks.empty()) p["landmark_density"] = text(coveredLandmarkDensity(world));
   if (world.movers.count == 0) {
     // Knowing there are no movers: a few static sightings tell a landmark from clutter, and loop

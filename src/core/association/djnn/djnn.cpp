@@ -39,8 +39,6 @@ void DJNN::configure(const ParameterSource& user) {
   static_test.read(r);
   FollowPose follow_pose;
   follow_pose.read(r);
-  ShiftTest shift;
-  shift.read(r);
   DensityTest density;
   density.read(r);
   JointDecision joint;
@@ -75,7 +73,6 @@ void DJNN::configure(const ParameterSource& user) {
   p.static_test = static_test.params();
   p.bias = bias.params();
   p.follow_pose = follow_pose.params();
-  p.shift = shift.params();
   p.density = density.params();
   p.joint = joint.params();
   p.remembered = remembered.params();
@@ -88,7 +85,6 @@ void DJNN::configure(const ParameterSource& user) {
   ambiguity_ = ambiguity;
   static_test_ = static_test;
   follow_pose_ = follow_pose;
-  shift_test_ = shift;
   density_test_ = density;
   joint_ = joint;
   remembered_ = remembered;
@@ -153,8 +149,8 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   ++stats_.cases[static_cast<int>(last_case_)];
 
   // Extensions on the pairing: unpaired but ambiguous observations make no feature; at a loop
-  // closure the joint decision weighs every hypothesis the shift and density tests weigh, and
-  // more.
+  // closure the joint decision weighs every hypothesis the density test weighs, the scan shifted
+  // onto gated neighbours included, and more.
   ambiguity_.apply(ctx, paper_, &scan_);
   const JointDecision::Parts parts{paper_,
                                    ambiguity_.gate(),
@@ -167,7 +163,6 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   // view), the joint decision has no null hypothesis: the scan is decided as without it.
   const bool unmapped_known = density_test_.density() + p_.paper.sensor.clutter_density > 0.0;
   if (!joint_.on() || !unmapped_known || !joint_.decide(ctx, parts, &scan_, &stats_)) {
-    shift_test_.apply(ctx, paper_.gate(), ambiguity_.gate(), &scan_, &stats_);
     density_test_.apply(ctx, p_.paper.sensor.clutter_density, &scan_, &stats_);
   }
   scan_.countPairings();

@@ -8,7 +8,6 @@ const std::map<std::string, std::string>& missedDetectionDefaults() {
       {"tentative_follow_pose", "true"},  // FollowPose
       {"static_heading", "true"},         // StaticTest
       {"learn_mover_speed", "true"},      // StaticTest: the movers' speed, online
-      {"shift_test", "true"},             // ShiftTest
       {"density_test", "true"},           // DensityTest (its density: estimated by default)
       {"bias_keep_pairings", "10"},       // BiasTest: established landmarks
       {"remembered_sightings", "2"},      // RememberedFeatures

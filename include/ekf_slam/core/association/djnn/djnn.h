@@ -12,7 +12,6 @@
 //   BiasTest             bias_*                          landmarks dragged along by movers
 //   FollowPose           tentative_follow_pose           tentative features left behind when
 //                                                        the pose is corrected
-//   ShiftTest            shift_test, shift_margin        a periodic layout's shifted pairing
 //   DensityTest          density_test, landmark_density, estimate_landmark_density
 //                                                        a new landmark paired with an old one
 //   missed-detection profile (missed_detection_profile.h): the defaults of the parts above for a
@@ -53,7 +52,6 @@
 #include "ekf_slam/core/association/djnn/local_scan.h"
 #include "ekf_slam/core/association/djnn/occluded_misses.h"
 #include "ekf_slam/core/association/djnn/remembered_features.h"
-#include "ekf_slam/core/association/djnn/shift_test.h"
 #include "ekf_slam/core/association/djnn/static_test.h"
 
 namespace ekf_slam {
@@ -70,7 +68,6 @@ class DJNN : public DataAssociation, private FeatureRules {
     StaticTest::Params static_test;
     BiasTest::Params bias;
     FollowPose::Params follow_pose;
-    ShiftTest::Params shift;
     DensityTest::Params density;
     JointDecision::Params joint;
     RememberedFeatures::Params remembered;
@@ -134,7 +131,6 @@ class DJNN : public DataAssociation, private FeatureRules {
   StaticTest static_test_;
   BiasTest bias_test_;
   FollowPose follow_pose_;
-  ShiftTest shift_test_;
   DensityTest density_test_;
   JointDecision joint_;
   RememberedFeatures remembered_;

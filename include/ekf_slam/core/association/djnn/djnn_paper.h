@@ -55,8 +55,6 @@ struct DjnnStats {
   std::uint64_t static_restarts = 0;      ///< tentative features restarted by the static test
   std::uint64_t biased_removed = 0;       ///< landmarks removed by the innovation-bias test
   std::uint64_t biased_kept = 0;          ///< pairings withdrawn from established landmarks
-  std::uint64_t shifts_taken = 0;         ///< scans whose pairing a likelier shift replaced
-  std::uint64_t shifts_ambiguous = 0;     ///< scans with pairings withdrawn as ambiguous
   std::uint64_t density_withdrawn = 0;    ///< pairings withdrawn by the density test
   std::uint64_t joint_scans = 0;          ///< loop-closure scans given the joint decision
   std::uint64_t joint_held = 0;           ///< observations the joint decision left undecided

@@ -1,13 +1,13 @@
 // DJNN extension "joint decision at loop closures" (loop_closure_age, joint_margin; docs/djnn.md,
 // "Closing the loops"). Back on landmarks last paired long ago, the pose error can be a landmark
-// spacing or more: NN (with eq. 6's compensation) and the shift test then pick one of several
+// spacing or more: NN (with eq. 6's compensation) then picks one of several
 // hypotheses that fit nearly equally, and a wrong one corrupts the map for good. The joint
 // maximum-likelihood assignment over the gated candidates, "not in the map" scored by the
 // densities (landmark_density + clutter_density), decides each observation only when every
 // hypothesis deciding it otherwise is joint_margin less likely; the rest are held (neither
 // paired nor a new landmark), but for a pairing with a landmark tracked within loop_closure_age
-// whose only rival is "not in the map" (it decides no closure). With it on, the shift and density
-// tests run only on the other scans. Works with the remembered features, landmark spacing and held
+// whose only rival is "not in the map" (it decides no closure). With it on, the density test
+// runs only on the other scans. Works with the remembered features, landmark spacing and held
 // confirmations.
 #pragma once
 

@@ -380,10 +380,9 @@ TEST(SimulateYaml, NumbersReadBackAsNumbersInBothYamlDialects) {
 // keys the oracle configuration computes from it.
 TEST(SimulateYaml, NoWorldsParameterFileHoldsTheTruth) {
   const std::vector<std::string> truth_keys = {
-      "landmark_density",      "landmark_spacing", "clutter_density",      "static_min_speed",
-      "tentative_follow_pose", "static_heading",           "bias_keep_pairings",
-      "admit_evidence",        "loop_closure_age", "remembered_sightings", "held_birth_cost",
-      "held_confirmations"};
+      "landmark_density",      "landmark_spacing",     "clutter_density",    "static_min_speed",
+      "tentative_follow_pose", "static_heading",       "bias_keep_pairings", "admit_evidence",
+      "loop_closure_age",      "remembered_sightings", "held_birth_cost",    "held_confirmations"};
   for (const std::string& name : sim::worldNames()) {
     const sim::World world = sim::makeWorld(name);
     const std::string written = worldParamsYaml(world, {});

@@ -11,7 +11,8 @@ const std::map<std::string, std::string>& missedDetectionDefaults() {
       {"density_test", "true"},           // DensityTest (its density: estimated by default)
       {"bias_keep_pairings", "10"},       // BiasTest: established landmarks
       {"remembered_sightings", "2"},      // RememberedFeatures
-      {"held_birth_cost", "4"},          {"held_confirmations", "1"},  // HeldConfirmation
+      {"held_birth_cost", "4"},           // RememberedFeatures: a feature born held
+      {"held_confirmations", "1"},        // HeldConfirmation
   };
   return defaults;
 }

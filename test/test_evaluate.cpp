@@ -214,8 +214,7 @@ TEST(Evaluate, PaperPresetIsThePublishedDjnn) {
   const PipelineParts parts =
       buildPipeline(evaluationConfiguration(o, world, "ekf_slam/DJNN"), PluginlibFactory());
   EXPECT_FALSE(parts.config.delayed_sightings);
-  EXPECT_NE(parts.config.linearisation(), Linearisation::kFirstEstimate);
-  EXPECT_NE(parts.config.linearisation(), Linearisation::kInvariant);
+  EXPECT_EQ(parts.config.linearisation(), Linearisation::kStandard);
   const auto djnn = std::dynamic_pointer_cast<DJNN>(parts.associator);
   ASSERT_TRUE(djnn);
   const DJNN::Params& p = djnn->params();

@@ -189,14 +189,14 @@ TEST(FirstEstimateJacobians, ParameterValidated) {
   EXPECT_EQ(readPipelineConfig(MapParameterSource()).jacobians, "auto");
   EXPECT_EQ(readPipelineConfig(MapParameterSource()).linearisation(),
             Linearisation::kFirstEstimate);
-  EXPECT_NE(readPipelineConfig(MapParameterSource(Values{{"second_order_observations", "true"}}))
+  EXPECT_EQ(readPipelineConfig(MapParameterSource(Values{{"second_order_observations", "true"}}))
                 .linearisation(),
-            Linearisation::kFirstEstimate);
-  EXPECT_NE(readPipelineConfig(MapParameterSource(Values{{"filter", "cekf"}})).linearisation(),
-            Linearisation::kFirstEstimate);
-  EXPECT_NE(
+            Linearisation::kInvariant);
+  EXPECT_EQ(readPipelineConfig(MapParameterSource(Values{{"filter", "cekf"}})).linearisation(),
+            Linearisation::kStandard);
+  EXPECT_EQ(
       readPipelineConfig(MapParameterSource(Values{{"jacobians", "standard"}})).linearisation(),
-      Linearisation::kFirstEstimate);
+      Linearisation::kStandard);
   EXPECT_EQ(
       readPipelineConfig(MapParameterSource(Values{{"jacobians", "first_estimate"}})).jacobians,
       "first_estimate");

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -101,27 +102,18 @@ TEST(WorldParameters, LandmarkDensityIsPerGroundTheSensorCovers) {
 // 425 m, where FEJ diverges) run the invariant EKF, and the compressed filter's city the standard
 // Jacobians. No world chooses its own filter.
 TEST(WorldParameters, DefaultFilterIsFejUnlessFarLandmarksNeedSecondOrderTerms) {
-  for (const char* name :
-       {"fiducials", "fiducials_lattice", "arena", "djnn_weak", "hybrid", "aekf"}) {
-    EXPECT_EQ(sim::pipelineConfigFor(sim::makeWorld(name)).linearisation(),
-              Linearisation::kFirstEstimate)
-        << name;
-    EXPECT_NE(sim::pipelineConfigFor(sim::makeWorld(name)).linearisation(),
-              Linearisation::kInvariant)
-        << name;
-  }
-  for (const char* name : {"rrw_noise_1", "rrw_occlusion_2"}) {
-    EXPECT_NE(sim::pipelineConfigFor(sim::makeWorld(name)).linearisation(),
-              Linearisation::kFirstEstimate)
-        << name;
-    EXPECT_EQ(sim::pipelineConfigFor(sim::makeWorld(name)).linearisation(),
-              Linearisation::kInvariant)
-        << name;
-  }
-  EXPECT_NE(sim::pipelineConfigFor(sim::makeWorld("city")).linearisation(),
-            Linearisation::kFirstEstimate);
-  EXPECT_NE(sim::pipelineConfigFor(sim::makeWorld("city")).linearisation(),
-            Linearisation::kInvariant);
+  const std::vector<std::pair<const char*, Linearisation>> expected = {
+      {"fiducials", Linearisation::kFirstEstimate},
+      {"fiducials_lattice", Linearisation::kFirstEstimate},
+      {"arena", Linearisation::kFirstEstimate},
+      {"djnn_weak", Linearisation::kFirstEstimate},
+      {"hybrid", Linearisation::kFirstEstimate},
+      {"aekf", Linearisation::kFirstEstimate},
+      {"rrw_noise_1", Linearisation::kInvariant},
+      {"rrw_occlusion_2", Linearisation::kInvariant},
+      {"city", Linearisation::kStandard}};
+  for (const auto& [name, linearisation] : expected)
+    EXPECT_EQ(sim::pipelineConfigFor(sim::makeWorld(name)).linearisation(), linearisation) << name;
   for (const std::string& name : sim::worldNames())
     EXPECT_EQ(sim::pipelineParametersFor(sim::makeWorld(name)).count("jacobians"), 0u) << name;
 }

@@ -207,7 +207,7 @@ bool secondMoverAdmitted(bool learn, unsigned seed, double* learned) {
   s.landmark_covs.clear();
   s.true_landmarks.clear();
   s.build();
-  *learned = d.learnedMoverSpeed();
+  *learned = d.moverSpeed().speed();
   for (int i = 0; i < 40; ++i) {
     const Eigen::Vector2d b(4.0, 1.5 - 0.06 * i);
     if (scan(&b).decision.back() == Decision::kNew) return true;
@@ -237,8 +237,94 @@ TEST(DJNNAdmission, LearningMoverSpeedWaitsForAMover) {
   auto landmark = [](int) { return Eigen::Vector2d(3.0, 0.5); };
   auto always = [](int, std::mt19937*) { return true; };
   EXPECT_EQ(admittedAtScan("0", 1, 300, landmark, always, "true"), 6);
-  EXPECT_EQ(DJNN().params().static_test.learn_mover_speed, false);
+  EXPECT_EQ(DJNN().params().mover_speed.learn_mover_speed, false);
   EXPECT_THROW(makeDjnn({{"mover_speed_samples", "0"}}), ParameterError);
+}
+
+// The bound on a learned wait (mover_wait_budget, docs/djnn.md "Movers' speed learned from the
+// landmarks they left"): the least speed that 9 in 10 of the map's windows resolved. It needs 10
+// windows, and it only ever shortens a wait that was learned.
+MoverSpeed learningMoverSpeed(const std::string& budget) {
+  MoverSpeed m;
+  m.read(ParameterReader(
+      MapParameterSource({{"learn_mover_speed", "true"}, {"mover_wait_budget", budget}})));
+  m.configure(60.0);
+  return m;
+}
+
+TEST(DJNNAdmission, LearnedWaitIsBoundedByWhatTheMapsLandmarksResolved) {
+  MoverSpeed m = learningMoverSpeed("0.1");
+  m.moverLeft(0.01);  // a robot that stood still before it drove off: a wait for 5 mm/s
+  EXPECT_DOUBLE_EQ(m.speed(), 0.005);
+  for (int i = 1; i <= 9; ++i) m.windowEnded(0.01 * i);  // 0.01 .. 0.09 m/s
+  EXPECT_EQ(m.bound(), 0.0);  // nine windows say nothing of a 0.9 quantile
+  EXPECT_DOUBLE_EQ(m.speed(), 0.005);
+  m.windowEnded(0.5);
+  EXPECT_DOUBLE_EQ(m.bound(), 0.09);  // 9 of the 10 resolved 0.09 m/s or less
+  EXPECT_DOUBLE_EQ(m.speed(), 0.09);
+  m.moverLeft(0.4);
+  m.moverLeft(0.5);  // the median mover 0.4 m/s: a wait for 0.2, shorter than the bound's
+  EXPECT_DOUBLE_EQ(m.speed(), 0.2);
+}
+
+TEST(DJNNAdmission, BoundAloneSetsNoWaitAndBudgetZeroHasNone) {
+  MoverSpeed m = learningMoverSpeed("0.1");
+  for (int i = 0; i < 20; ++i) m.windowEnded(0.1);
+  EXPECT_EQ(m.speed(), 0.0);  // no mover has left: no wait at all
+  MoverSpeed unbounded = learningMoverSpeed("0");
+  unbounded.moverLeft(0.01);
+  for (int i = 0; i < 20; ++i) unbounded.windowEnded(0.1);
+  EXPECT_EQ(unbounded.bound(), 0.0);
+  EXPECT_DOUBLE_EQ(unbounded.speed(), 0.005);
+  EXPECT_EQ(DJNN().params().mover_speed.mover_wait_budget, 0.2);
+  EXPECT_THROW(makeDjnn({{"mover_wait_budget", "0.6"}}), ParameterError);
+}
+
+// An admitted landmark's window: its sightings within tentative_timeout (60 s) of its first one,
+// counted once, when the window has passed. Seen in every scan at 5 Hz for a minute with 0.15 m
+// of noise, it resolves a speed under 1 cm/s (about 2 mm/s).
+TEST(DJNNAdmission, AdmittedLandmarksWindowResolvesItsSpeedOnce) {
+  Scene s;
+  s.pose_cov = assoc_test::poseCov(0.02, 0.02, deg2rad(0.5));
+  s.R = assoc_test::diag2(0.15, deg2rad(2.5));
+  s.build();
+  DJNN d = makeDjnn({{"detection_probability", "0.2"},
+                     {"admit_evidence", "7"},
+                     {"static_test", "true"},
+                     {"static_probability", "0.9"},
+                     {"learn_mover_speed", "true"}});
+  std::mt19937 rng(1);
+  const Eigen::Vector2d p(3.0, 0.5);
+  int k = 0;
+  auto scan = [&]() {
+    s.observations.clear();
+    s.truth.clear();
+    s.observePoint(p, &rng);
+    return d.associate(s.context(0.2 * k++));
+  };
+  bool mapped = false;
+  for (int i = 0; i < 20 && !mapped; ++i) {
+    if (scan().decision.back() != Decision::kNew) continue;
+    s.addLandmark(p);
+    s.build();
+    d.landmarkAdded(0, Scene::idOf(0));
+    mapped = true;
+  }
+  ASSERT_TRUE(mapped);
+  int scans = 0, paired = 0;
+  while (0.2 * k < 59.9) {
+    ++scans;
+    paired += scan().decision.back() == Decision::kPaired;  // a few fall outside the gate
+    ASSERT_TRUE(d.moverSpeed().windowSpeeds().empty());
+  }
+  EXPECT_GT(paired, 0.95 * scans);
+  while (0.2 * k < 60.5) scan();
+  ASSERT_EQ(d.moverSpeed().windowSpeeds().size(), 1u);
+  EXPECT_GT(d.moverSpeed().windowSpeeds()[0], 0.0);
+  EXPECT_LT(d.moverSpeed().windowSpeeds()[0], 0.01);
+  for (int i = 0; i < 50; ++i) scan();
+  EXPECT_EQ(d.moverSpeed().windowSpeeds().size(), 1u);
+  EXPECT_EQ(d.moverSpeed().speed(), 0.0);  // no mover left
 }
 
 }  // namespace test_djnn_admission

@@ -37,6 +37,8 @@ void DJNN::configure(const ParameterSource& user) {
   ambiguity.read(r, paper.individual_probability);
   StaticTest static_test;
   static_test.read(r);
+  MoverSpeed mover_speed;
+  mover_speed.read(r);
   FollowPose follow_pose;
   follow_pose.read(r);
   DensityTest density;
@@ -71,6 +73,7 @@ void DJNN::configure(const ParameterSource& user) {
   p.paper = paper;
   p.ambiguity = ambiguity.params();
   p.static_test = static_test.params();
+  p.mover_speed = mover_speed.params();
   p.bias = bias.params();
   p.follow_pose = follow_pose.params();
   p.density = density.params();
@@ -84,6 +87,7 @@ void DJNN::configure(const ParameterSource& user) {
   p_ = p;
   ambiguity_ = ambiguity;
   static_test_ = static_test;
+  mover_speed_ = mover_speed;
   follow_pose_ = follow_pose;
   density_test_ = density;
   joint_ = joint;
@@ -97,7 +101,8 @@ void DJNN::configure(const ParameterSource& user) {
 
   paper_.configure(p_.paper);
   density_test_.configure(p_.paper.sensor);
-  static_test_.configure(p_.paper.admit_evidence);
+  static_test_.configure(p_.paper.admit_evidence, mover_speed_.on());
+  mover_speed_.configure(p_.paper.tentative_timeout);
   bias_test_.configure();
   reset();
 }
@@ -105,6 +110,7 @@ void DJNN::configure(const ParameterSource& user) {
 void DJNN::reset() {
   paper_.reset();
   static_test_.reset();
+  mover_speed_.reset();
   bias_test_.reset();
   joint_.reset();
   density_test_.reset();
@@ -112,8 +118,6 @@ void DJNN::reset() {
   confirmation_.clear();
   scan_ = LocalScan();
   pending_new_.clear();
-  pending_speed_.clear();
-  admitted_.clear();
   last_case_ = Case::kNone;
   stats_ = Stats();
 }
@@ -123,7 +127,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   AssociationResult result;
   result.resize(m);
   pending_new_.assign(m, -1);
-  pending_speed_.assign(m, -1.0);
+  mover_speed_.beginScan(m);
   scan_.force_new.assign(m, 0);
   scan_.held = false;
   scan_.v_bar.setZero();
@@ -184,41 +188,14 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   held_sightings_.join(ctx, scan_, this, &paper_, &result, &stats_);
   paper_.countFeatureEvidence(ctx, &scan_, &result, this, &stats_);
 
-  trackAdmitted(ctx, result);
+  mover_speed_.scanDone(ctx, result, scan_.cand, paper_.tentativeGate(), p_.paper.admit_evidence,
+                        static_test_);
+  static_test_.useLearnedSpeed(mover_speed_.speed());
   if (joint_.on()) {
     joint_.record(result, scan_.stamp);
     for (LandmarkId id : result.remove) remembered_.forgetAnchor(id);  // their anchor is gone
   }
   return result;
-}
-
-void DJNN::trackAdmitted(const AssociationContext& ctx, const AssociationResult& result) {
-  if (admitted_.empty()) return;
-  for (std::size_t i = 0; i < result.decision.size(); ++i) {
-    if (result.decision[i] != Decision::kPaired) continue;
-    const auto it = admitted_.find(result.landmark[i]);
-    if (it != admitted_.end()) ++it->second.pairings;
-  }
-  const EkfSlam& ekf = ctx.ekf();
-  for (LandmarkId id : result.remove) {
-    const auto it = admitted_.find(id);
-    if (it == admitted_.end()) continue;
-    const Admitted a = it->second;
-    admitted_.erase(it);
-    // Established (paired as often as it took to admit it): a landmark, whatever removed it.
-    if (a.pairings >= p_.paper.admit_evidence) continue;
-    // Beside another landmark it was a duplicate of that one, not something that left.
-    const int k = ekf.indexOf(id);
-    if (k < 0) continue;
-    bool duplicate = false;
-    for (int j : scan_.cand) {
-      if (j == k) continue;
-      const Eigen::Vector2d d = ekf.landmark(k) - ekf.landmark(j);
-      const Eigen::Matrix2d S = ekf.landmarkCovariance(k) + ekf.landmarkCovariance(j);
-      duplicate = duplicate || d.dot(S.inverse() * d) <= paper_.tentativeGate();
-    }
-    if (!duplicate) static_test_.moverLeft(a.resolved_speed);
-  }
 }
 
 // --- the extensions' share of the tentative-feature step -----------------------------------------
@@ -274,7 +251,7 @@ Decision DJNN::decide(const AssociationContext& ctx, int obs, int slot, double e
   }
   if (paper_admits && static_ok) {
     pending_new_[obs] = evidence;
-    if (p_.static_test.learn_mover_speed) pending_speed_[obs] = static_test_.resolvedSpeed(t);
+    mover_speed_.admitting(obs, t, static_test_);
     return Decision::kNew;
   }
   return Decision::kTentative;
@@ -289,8 +266,7 @@ void DJNN::landmarkAdded(int obs, LandmarkId id) {
   }
   paper_.setEvidence(id, t);
   if (joint_.on()) joint_.landmarkAdded(id, scan_.stamp);
-  if (obs >= 0 && obs < static_cast<int>(pending_speed_.size()) && pending_speed_[obs] >= 0.0)
-    admitted_[id] = {pending_speed_[obs], 0};
+  mover_speed_.landmarkAdded(obs, id);
 }
 
 void DJNN::poseCorrected(const Eigen::Vector3d& prior, const Eigen::Vector3d& posterior) {

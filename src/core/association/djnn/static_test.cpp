@@ -15,16 +15,9 @@ void StaticTest::read(const ParameterReader& r) {
   p_.static_probability = r.probability("static_probability", def.static_probability);
   p_.static_heading = r.flag("static_heading", def.static_heading);
   p_.static_min_speed = r.nonNegative("static_min_speed", def.static_min_speed);
-  p_.learn_mover_speed = r.flag("learn_mover_speed", def.learn_mover_speed);
-  p_.mover_speed_samples = r.integer("mover_speed_samples", def.mover_speed_samples, 1, 1000000);
   p_.admission_velocity_test = r.flag("admission_velocity_test", def.admission_velocity_test);
   p_.admission_velocity_probability =
       r.probability("admission_velocity_probability", def.admission_velocity_probability);
-}
-
-void StaticTest::reset() {
-  mover_speeds_.clear();
-  learned_speed_ = 0.0;
 }
 
 double StaticTest::minSpeed() const {
@@ -43,8 +36,9 @@ double StaticTest::baselineInformation(double v) const {
   return k * k;
 }
 
-void StaticTest::configure(int admit_evidence) {
+void StaticTest::configure(int admit_evidence, bool learning) {
   admit_evidence_ = admit_evidence;
+  learning_ = learning;
   static_gate_ =
       Chi2Table(p_.static_probability, 2 * std::max({admit_evidence, 2, kMaxJointSightings}));
   velocity_gate_ = chi2Quantile(p_.static_probability, 2);
@@ -74,8 +68,8 @@ bool StaticTest::stillStatic(Tentative* t, const Eigen::Vector2d& z,
   int dof = 0;
   const bool joint_known = ctx != nullptr && jointStatistic(*ctx, *t, obs, &joint, &dof);
   if (joint_known) moving = joint > static_gate_(dof);
-  if ((p_.static_min_speed > 0.0 || p_.learn_mover_speed) && !moving) {
-    addToTrack(t, z, C, stamp);
+  if ((p_.static_min_speed > 0.0 || learning_) && !moving) {
+    addToTrack(&t->track_info, &t->track_vec, z, C, stamp, t->first_seen);
     if (minSpeed() > 0.0) {
       // Against a constant velocity (2 dof) rather than any scatter (2 (k - 1) dof): the
       // stronger test for an object moving steadily. At a learned speed the joint fit decides
@@ -223,7 +217,9 @@ bool StaticTest::jointTrack(const AssociationContext& ctx, const Tentative& t, i
 void StaticTest::started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
                          double stamp) const {
   // While learning the track is kept from the start, so that it is whole once a speed is known.
-  if (p_.static_min_speed > 0.0 || p_.learn_mover_speed) addToTrack(t, z, C, stamp);
+  if (p_.static_min_speed > 0.0 || learning_) {
+    addToTrack(&t->track_info, &t->track_vec, z, C, stamp, t->first_seen);
+  }
 }
 
 bool StaticTest::admits(const Tentative& t) const {
@@ -261,10 +257,9 @@ bool StaticTest::movingAtAdmission(const AssociationContext& ctx, const Tentativ
   return jointTrack(ctx, t, obs, &v, &J, &residual, &m) && v.dot(J * v) > admission_gate_;
 }
 
-double StaticTest::resolvedSpeed(const Tentative& t) const {
-  Eigen::Matrix2d J;
-  double v2 = 0.0;
-  if (!trackVelocity(t, &J, &v2)) return std::numeric_limits<double>::infinity();
+double StaticTest::resolvedSpeed(const Eigen::Matrix4d& track_info) const {
+  const Eigen::Matrix2d J = velocityInformation(track_info);
+  if (!determined(J)) return std::numeric_limits<double>::infinity();
   const double half_trace = 0.5 * J.trace();
   const double gap = std::sqrt(std::max(0.0, half_trace * half_trace - J.determinant()));
   const double lambda = half_trace - gap;
@@ -272,30 +267,30 @@ double StaticTest::resolvedSpeed(const Tentative& t) const {
   return std::sqrt(baselineInformation(1.0) / lambda);
 }
 
-void StaticTest::moverLeft(double speed) {
-  if (!p_.learn_mover_speed || !std::isfinite(speed)) return;
-  mover_speeds_.push_back(speed);
-  if (static_cast<int>(mover_speeds_.size()) < p_.mover_speed_samples) return;
-  // A mover that passed the test at resolved speed r moved slower than about r, anywhere below
-  // it: half of it is its speed's middle. The median over movers: features pieced together from
-  // several passes over tens of seconds resolve almost nothing and must not alone set the wait.
-  std::vector<double> sorted = mover_speeds_;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  learned_speed_ = 0.5 * sorted[sorted.size() / 2];
+// Weighted least squares of z_i = p + (t_i - t_0) v + e_i, e_i ~ N(0, C_i), in information form.
+void StaticTest::addToTrack(Eigen::Matrix4d* track_info, Eigen::Vector4d* track_vec,
+                            const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp,
+                            double first_seen) {
+  const double dt = stamp - first_seen;
+  const Eigen::Matrix2d W = C.inverse();
+  track_info->topLeftCorner<2, 2>() += W;
+  track_info->topRightCorner<2, 2>() += dt * W;
+  track_info->bottomLeftCorner<2, 2>() += dt * W;
+  track_info->bottomRightCorner<2, 2>() += dt * dt * W;
+  const Eigen::Vector2d wz = W * z;
+  track_vec->head<2>() += wz;
+  track_vec->tail<2>() += dt * wz;
 }
 
-// Weighted least squares of z_i = p + (t_i - t_0) v + e_i, e_i ~ N(0, C_i), in information form.
-void StaticTest::addToTrack(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
-                            double stamp) {
-  const double dt = stamp - t->first_seen;
-  const Eigen::Matrix2d W = C.inverse();
-  t->track_info.topLeftCorner<2, 2>() += W;
-  t->track_info.topRightCorner<2, 2>() += dt * W;
-  t->track_info.bottomLeftCorner<2, 2>() += dt * W;
-  t->track_info.bottomRightCorner<2, 2>() += dt * dt * W;
-  const Eigen::Vector2d wz = W * z;
-  t->track_vec.head<2>() += wz;
-  t->track_vec.tail<2>() += dt * wz;
+Eigen::Matrix2d StaticTest::velocityInformation(const Eigen::Matrix4d& L) {
+  const Eigen::Matrix2d Lpp_inv = L.topLeftCorner<2, 2>().inverse();
+  const Eigen::Matrix2d Lvp = L.bottomLeftCorner<2, 2>();
+  return L.bottomRightCorner<2, 2>() - Lvp * Lpp_inv * Lvp.transpose();
+}
+
+bool StaticTest::determined(const Eigen::Matrix2d& J) {
+  // All sightings at one stamp (or one): no velocity information yet.
+  return J.determinant() > 1e-12 * J.squaredNorm() && J.trace() > 0.0;
 }
 
 bool StaticTest::trackVelocity(const Tentative& t, Eigen::Matrix2d* J, double* statistic) {
@@ -303,11 +298,9 @@ bool StaticTest::trackVelocity(const Tentative& t, Eigen::Matrix2d* J, double* s
   // v_hat = J^-1 b with b = y_v - L_vp L_pp^-1 y_p, so v_hat^T J v_hat = b^T J^-1 b.
   const Eigen::Matrix2d Lpp_inv = t.track_info.topLeftCorner<2, 2>().inverse();
   const Eigen::Matrix2d Lvp = t.track_info.bottomLeftCorner<2, 2>();
-  *J = t.track_info.bottomRightCorner<2, 2>() - Lvp * Lpp_inv * Lvp.transpose();
+  *J = velocityInformation(t.track_info);
   const Eigen::Vector2d b = t.track_vec.tail<2>() - Lvp * Lpp_inv * t.track_vec.head<2>();
-  const double det = J->determinant();
-  // All sightings at one stamp (or one): no velocity information yet.
-  if (!(det > 1e-12 * J->squaredNorm()) || !(J->trace() > 0.0)) return false;
+  if (!determined(*J)) return false;
   *statistic = b.dot(J->inverse() * b);
   return std::isfinite(*statistic);
 }

@@ -8,7 +8,9 @@
 //   AmbiguityGate        ambiguity_probability           duplicates of a landmark left unpaired
 //                        tentative_ambiguity             a tentative feature split in two by one
 //                                                        sighting just outside its gate
-//   StaticTest           static_*, learn_mover_speed     slow movers admitted as landmarks
+//   StaticTest           static_*                        slow movers admitted as landmarks
+//   MoverSpeed           learn_mover_speed, mover_wait_budget
+//                                                        the same, with no speed stated
 //   BiasTest             bias_*                          landmarks dragged along by movers
 //   FollowPose           tentative_follow_pose           tentative features left behind when
 //                                                        the pose is corrected
@@ -33,7 +35,6 @@
 
 #include <cstdint>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -50,6 +51,7 @@
 #include "ekf_slam/core/association/djnn/joint_decision.h"
 #include "ekf_slam/core/association/djnn/landmark_spacing.h"
 #include "ekf_slam/core/association/djnn/local_scan.h"
+#include "ekf_slam/core/association/djnn/mover_speed.h"
 #include "ekf_slam/core/association/djnn/occluded_misses.h"
 #include "ekf_slam/core/association/djnn/remembered_features.h"
 #include "ekf_slam/core/association/djnn/static_test.h"
@@ -66,6 +68,7 @@ class DJNN : public DataAssociation, private FeatureRules {
     DjnnPaperParams paper;
     AmbiguityGate::Params ambiguity;
     StaticTest::Params static_test;
+    MoverSpeed::Params mover_speed;
     BiasTest::Params bias;
     FollowPose::Params follow_pose;
     DensityTest::Params density;
@@ -98,7 +101,7 @@ class DJNN : public DataAssociation, private FeatureRules {
   /// The density of unmapped landmarks in use: landmark_density, or its online estimate.
   double landmarkDensity() const { return density_test_.density(); }
   /// The movers' speed learned so far (learn_mover_speed), 0 before any was.
-  double learnedMoverSpeed() const { return static_test_.learnedSpeed(); }
+  const MoverSpeed& moverSpeed() const { return mover_speed_; }
   Case lastCase() const { return last_case_; }
   const Stats& stats() const { return stats_; }
   /// v_bar (range, bearing) that decided the pairing of the last scan (zero in case 1).
@@ -121,14 +124,11 @@ class DJNN : public DataAssociation, private FeatureRules {
   Decision decide(const AssociationContext& ctx, int obs, int slot, double evidence,
                   bool paper_admits) override;
 
-  /// Counts the pairings of the landmarks DJNN admitted; one removed unestablished, with no
-  /// other landmark at its place, tells the static test a mover left (learn_mover_speed).
-  void trackAdmitted(const AssociationContext& ctx, const AssociationResult& result);
-
   Params p_;
   DjnnPaper paper_;  // with its EvidenceModel
   AmbiguityGate ambiguity_;
   StaticTest static_test_;
+  MoverSpeed mover_speed_;
   BiasTest bias_test_;
   FollowPose follow_pose_;
   DensityTest density_test_;
@@ -141,14 +141,7 @@ class DJNN : public DataAssociation, private FeatureRules {
   HeldSightings held_sightings_;
 
   LocalScan scan_;
-  std::vector<double> pending_new_;    ///< per observation of the last scan: T at admission, or -1
-  std::vector<double> pending_speed_;  ///< per observation: StaticTest::resolvedSpeed at admission
-  /// Landmarks DJNN admitted: the speed their sightings resolved then, and pairings since.
-  struct Admitted {
-    double resolved_speed;
-    int pairings;
-  };
-  std::unordered_map<LandmarkId, Admitted> admitted_;
+  std::vector<double> pending_new_;  ///< per observation of the last scan: T at admission, or -1
   Case last_case_ = Case::kNone;
   Stats stats_;
 };

@@ -4,10 +4,10 @@
 // sighting; admission waits for admit_evidence sightings of one static point. Options:
 // static_heading (a heading error common to the sightings), static_min_speed (a constant-velocity
 // fit of the sightings: its velocity must pass chi2(2), and admission waits until an object at that
-// speed would have shown its motion), learn_mover_speed (without static_min_speed: the same test
-// and wait at a speed learned from the landmarks that left the map unestablished, the movers that
-// got in, once mover_speed_samples of them did), admission_velocity_test (at admission, the
-// sightings' joint constant-velocity fit must show no velocity at admission_velocity_probability).
+// speed would have shown its motion), a learned speed (without static_min_speed: the same test
+// and wait at the speed MoverSpeed learned, mover_speed.h), admission_velocity_test (at admission,
+// the sightings' joint constant-velocity fit must show no velocity at
+// admission_velocity_probability).
 #pragma once
 
 #include <vector>
@@ -28,9 +28,6 @@ class StaticTest {
     double static_probability = 0.9;
     bool static_heading = false;
     double static_min_speed = 0.0;  ///< [m/s]; 0: off
-    /// With static_min_speed 0: estimate it from what was seen moving (docs/djnn.md).
-    bool learn_mover_speed = false;
-    int mover_speed_samples = 1;  ///< movers seen before the estimate is used
     /// At admission, no velocity in the joint constant-velocity fit (docs/djnn.md).
     bool admission_velocity_test = true;
     /// Its gate, chi2(2, p): a refusal only delays the admission (the sightings are kept), so
@@ -38,18 +35,17 @@ class StaticTest {
     double admission_velocity_probability = 0.7;
   };
   void read(const ParameterReader& r);
-  /// admit_evidence: the sightings admission waits for (and the gate table's size).
-  void configure(int admit_evidence);
+  /// admit_evidence: the sightings admission waits for (and the gate table's size); learning:
+  /// a speed will be learned (MoverSpeed), so every feature's track is kept from its start.
+  void configure(int admit_evidence, bool learning);
   const Params& params() const { return p_; }
-  /// Forgets the learned movers (a new run).
-  void reset();
-  /// The slowest speed kept out of the map in use: static_min_speed, else the learned one once
-  /// enough movers were seen, else 0 (no velocity test, no wait).
+  /// Forgets the learned speed (a new run).
+  void reset() { learned_speed_ = 0.0; }
+  /// The speed MoverSpeed learned (0: none yet), used while static_min_speed is 0.
+  void useLearnedSpeed(double speed) { learned_speed_ = speed; }
+  /// The slowest speed kept out of the map in use: static_min_speed, else the learned one, else
+  /// 0 (no velocity test, no wait).
   double minSpeed() const;
-  /// The learned speed, 0 before mover_speed_samples movers were seen.
-  double learnedSpeed() const { return learned_speed_; }
-  /// The resolved speeds (resolvedSpeed) of the movers that left so far [m/s], in order.
-  const std::vector<double>& moverSpeeds() const { return mover_speeds_; }
 
   /// The pose covariance of this scan (static_heading reads its heading variance).
   void beginScan(const Eigen::Matrix3d& P_vv);
@@ -88,15 +84,19 @@ class StaticTest {
   bool movingAtAdmission(const AssociationContext& ctx, const Tentative& t, int obs) const;
   /// The slowest speed at which t's sightings would have shown motion (the inverse of the
   /// admission wait); infinity when its velocity is not determined.
-  double resolvedSpeed(const Tentative& t) const;
-  /// A landmark admitted with resolved speed `speed` left again unestablished: a mover slower
-  /// than the test could see then.
-  void moverLeft(double speed);
+  double resolvedSpeed(const Tentative& t) const { return resolvedSpeed(t.track_info); }
+  /// The same of a track's information (Tentative::track_info).
+  double resolvedSpeed(const Eigen::Matrix4d& track_info) const;
+  /// Adds a sighting (noise C, at `stamp`) to a track that started at `first_seen`.
+  static void addToTrack(Eigen::Matrix4d* track_info, Eigen::Vector4d* track_vec,
+                         const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp,
+                         double first_seen);
 
  private:
-  /// Adds a sighting to the constant-velocity fit of `t`.
-  static void addToTrack(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C,
-                         double stamp);
+  /// The track's velocity information (position marginalised).
+  static Eigen::Matrix2d velocityInformation(const Eigen::Matrix4d& track_info);
+  /// False while the track has no velocity information (one sighting, or one stamp).
+  static bool determined(const Eigen::Matrix2d& J);
   /// The fit's velocity information J (inverse covariance of the velocity, position marginalised)
   /// and the velocity test statistic v^T J v; false when the velocity is not determined yet.
   static bool trackVelocity(const Tentative& t, Eigen::Matrix2d* J, double* statistic);
@@ -110,12 +110,12 @@ class StaticTest {
 
   Params p_;
   int admit_evidence_ = 7;
+  bool learning_ = false;
   Chi2Table static_gate_;
   double velocity_gate_ = 0.0;         ///< chi2(2, static_probability)
   double admission_gate_ = 0.0;        ///< chi2(2, admission_velocity_probability)
   double baseline_information_ = 0.0;  ///< least velocity information for admission [s^2/m^2]
-  std::vector<double> mover_speeds_;   ///< learned
-  double learned_speed_ = 0.0;         ///< 0 until mover_speed_samples movers were seen
+  double learned_speed_ = 0.0;         ///< MoverSpeed's, 0 until it learned one
   double heading_var_ = 0.0;           ///< of this scan (static_heading)
 };
 

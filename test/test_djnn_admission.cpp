@@ -82,22 +82,32 @@ TEST(DJNNAdmission, EstablishedLandmarkKeepsItsPlaceWhenAMoverPassesBy) {
   EXPECT_GE(withdrawn, 1);
 }
 
-// A camera-like sensor (0.15 m, 2.5 deg) at 5 Hz, P_D 0.2 and admission after 7 static sightings
-// (the `arena` settings), noise drawn with `seed`. Returns the scan at which the point at
-// `where(k)` is admitted, -1 if never in `scans`; it is sighted in the scans `seen(k, rng)` says.
-template <typename Where, typename Seen>
-int admittedAtScan(const std::string& min_speed, unsigned seed, int scans, Where where, Seen seen,
-                   const std::string& learn = "false") {
+// A camera-like sensor (0.15 m, 2.5 deg) on a well localised robot, and DJNN with P_D 0.2 and
+// admission after 7 static sightings (the `arena` settings).
+Scene cameraScene() {
   Scene s;
   s.pose_cov = assoc_test::poseCov(0.02, 0.02, deg2rad(0.5));
   s.R = assoc_test::diag2(0.15, deg2rad(2.5));
   s.build();
-  DJNN d = makeDjnn({{"detection_probability", "0.2"},
-                     {"admit_evidence", "7"},
-                     {"static_test", "true"},
-                     {"static_probability", "0.9"},
-                     {"static_min_speed", min_speed},
-                     {"learn_mover_speed", learn}});
+  return s;
+}
+
+DJNN cameraDjnn(const std::string& learn_mover_speed, const std::string& min_speed = "0") {
+  return makeDjnn({{"detection_probability", "0.2"},
+                   {"admit_evidence", "7"},
+                   {"static_test", "true"},
+                   {"static_probability", "0.9"},
+                   {"static_min_speed", min_speed},
+                   {"learn_mover_speed", learn_mover_speed}});
+}
+
+// The camera at 5 Hz, noise drawn with `seed`. Returns the scan at which the point at
+// `where(k)` is admitted, -1 if never in `scans`; it is sighted in the scans `seen(k, rng)` says.
+template <typename Where, typename Seen>
+int admittedAtScan(const std::string& min_speed, unsigned seed, int scans, Where where, Seen seen,
+                   const std::string& learn = "false") {
+  Scene s = cameraScene();
+  DJNN d = cameraDjnn(learn, min_speed);
   std::mt19937 rng(seed);
   for (int k = 0; k < scans; ++k) {
     s.observations.clear();
@@ -169,15 +179,8 @@ TEST(DJNNAdmission, MinimumSpeedIsOffByDefaultAndValidated) {
 // missed in view, is removed unestablished. Then robot B crosses 4 m away at 0.3 m/s for 8 s.
 // Returns whether B was admitted; *learned: the speed the static test uses after A.
 bool secondMoverAdmitted(bool learn, unsigned seed, double* learned) {
-  Scene s;
-  s.pose_cov = assoc_test::poseCov(0.02, 0.02, deg2rad(0.5));
-  s.R = assoc_test::diag2(0.15, deg2rad(2.5));
-  s.build();
-  DJNN d = makeDjnn({{"detection_probability", "0.2"},
-                     {"admit_evidence", "7"},
-                     {"static_test", "true"},
-                     {"static_probability", "0.9"},
-                     {"learn_mover_speed", learn ? "true" : "false"}});
+  Scene s = cameraScene();
+  DJNN d = cameraDjnn(learn ? "true" : "false");
   std::mt19937 rng(seed);
   int k = 0;
   auto scan = [&](const Eigen::Vector2d* where) {
@@ -284,15 +287,8 @@ TEST(DJNNAdmission, BoundAloneSetsNoWaitAndBudgetZeroHasNone) {
 // counted once, when the window has passed. Seen in every scan at 5 Hz for a minute with 0.15 m
 // of noise, it resolves a speed under 1 cm/s (about 2 mm/s).
 TEST(DJNNAdmission, AdmittedLandmarksWindowResolvesItsSpeedOnce) {
-  Scene s;
-  s.pose_cov = assoc_test::poseCov(0.02, 0.02, deg2rad(0.5));
-  s.R = assoc_test::diag2(0.15, deg2rad(2.5));
-  s.build();
-  DJNN d = makeDjnn({{"detection_probability", "0.2"},
-                     {"admit_evidence", "7"},
-                     {"static_test", "true"},
-                     {"static_probability", "0.9"},
-                     {"learn_mover_speed", "true"}});
+  Scene s = cameraScene();
+  DJNN d = cameraDjnn("true");
   std::mt19937 rng(1);
   const Eigen::Vector2d p(3.0, 0.5);
   int k = 0;

@@ -7,7 +7,7 @@ const std::map<std::string, std::string>& missedDetectionDefaults() {
   static const std::map<std::string, std::string> defaults = {
       {"tentative_follow_pose", "true"},  // FollowPose
       {"static_heading", "true"},         // StaticTest
-      {"learn_mover_speed", "true"},      // StaticTest: the movers' speed, online
+      {"learn_mover_speed", "true"},      // MoverSpeed: the movers' speed, online
       {"density_test", "true"},           // DensityTest (its density: estimated by default)
       {"bias_keep_pairings", "10"},       // BiasTest: established landmarks
       {"remembered_sightings", "2"},      // RememberedFeatures

@@ -100,7 +100,7 @@ class DJNN : public DataAssociation, private FeatureRules {
   const Params& params() const { return p_; }
   /// The density of unmapped landmarks in use: landmark_density, or its online estimate.
   double landmarkDensity() const { return density_test_.density(); }
-  /// The movers' speed learned so far (learn_mover_speed), 0 before any was.
+  /// What learn_mover_speed learned: MoverSpeed::speed() is the speed the static test uses.
   const MoverSpeed& moverSpeed() const { return mover_speed_; }
   Case lastCase() const { return last_case_; }
   const Stats& stats() const { return stats_; }

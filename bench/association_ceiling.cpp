@@ -34,9 +34,9 @@
 #include "ekf_slam/core/association/hungarian.h"
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/association/rrwsc.h"
+#include "ekf_slam/core/common/parameters.h"
 #include "ekf_slam/evaluation/association_ceiling.h"
 #include "ekf_slam/evaluation/simulated_run.h"
-#include "ekf_slam/core/common/parameters.h"
 #include "ekf_slam/evaluation/simulation/simulator.h"
 
 namespace {

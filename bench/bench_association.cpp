@@ -21,14 +21,14 @@
 
 #include <benchmark/benchmark.h>
 
-#include "ekf_slam/core/common/angles.h"
+#include "ekf_slam/core/association/data_association.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
 #include "ekf_slam/core/association/hungarian.h"
 #include "ekf_slam/core/association/jcbb.h"
 #include "ekf_slam/core/association/nn.h"
 #include "ekf_slam/core/association/nnjcbb.h"
 #include "ekf_slam/core/association/rrwsc.h"
-#include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
 #include "ekf_slam/core/filter/landmark_index.h"
 

@@ -25,8 +25,8 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/core/pipeline/pipeline_config.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 
 namespace {
 

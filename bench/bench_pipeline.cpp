@@ -12,8 +12,8 @@
 #include <random>
 #include <vector>
 
-#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/pipeline/slam_pipeline.h"
 
 using ekf_slam::Observation;

@@ -10,9 +10,9 @@
 #include <benchmark/benchmark.h>
 
 #include "ekf_slam/core/association/djnn/djnn.h"
-#include "ekf_slam/evaluation/simulated_run.h"
 #include "ekf_slam/core/pipeline/pipeline_config.h"
 #include "ekf_slam/core/smoothing/smoothing_recorder.h"
+#include "ekf_slam/evaluation/simulated_run.h"
 
 namespace {
 

@@ -22,11 +22,11 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 
-#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/filter/ekf_slam.h"
-#include "ekf_slam/core/filter/observation_model.h"
 #include "ekf_slam/core/filter/landmark_index.h"
+#include "ekf_slam/core/filter/observation_model.h"
 
 namespace ekf_slam {
 namespace assoc_test {

@@ -9,8 +9,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "ekf_slam/core/common/angles.h"
 #include "ekf_slam/core/association/data_association.h"
+#include "ekf_slam/core/common/angles.h"
 
 namespace rrwsc_test {
 

@@ -17,11 +17,11 @@
 #include <rosbag/view.h>
 
 #include "ekf_slam/app/pipeline_builder.h"
+#include "ekf_slam/app/yaml_configuration.h"
 #include "ekf_slam/core/feature_extraction/tree_extractor.h"
 #include "ekf_slam/data/victoria_park.h"
 #include "ekf_slam/ros/extractor_loader.h"
 #include "ekf_slam/ros/plugin_loader.h"
-#include "ekf_slam/app/yaml_configuration.h"
 
 namespace {
 

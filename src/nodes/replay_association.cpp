@@ -11,10 +11,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "ekf_slam/app/pipeline_builder.h"
-#include "ekf_slam/ros/plugin_loader.h"
 #include "ekf_slam/app/association_problem.h"
+#include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/app/yaml_configuration.h"
+#include "ekf_slam/ros/plugin_loader.h"
 
 namespace {
 

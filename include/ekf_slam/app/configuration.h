@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "ekf_slam/core/feature_extraction/scan_filter_chain.h"
 #include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/feature_extraction/scan_filter_chain.h"
 
 namespace ekf_slam {
 

@@ -23,8 +23,8 @@
 
 #include "ekf_slam/app/pipeline_builder.h"
 #include "ekf_slam/core/association/data_association.h"
-#include "ekf_slam/core/feature_extraction/feature_extractor.h"
 #include "ekf_slam/core/common/parameters.h"
+#include "ekf_slam/core/feature_extraction/feature_extractor.h"
 #include "ekf_slam/core/relocalisation/relocaliser.h"
 
 namespace pluginlib {

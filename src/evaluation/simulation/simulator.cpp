@@ -118,8 +118,8 @@ std::vector<Eigen::Vector2d> layoutLandmarks(const World& w, const LayoutSpec& s
   return out;
 }
 
-// Each builder fills one family of worlds (values and reasoning: docs/notes/2026-11-to-12-simulation-record.md,
-// "Choices where the papers are open, and why").
+// Each builder fills one family of worlds (values and reasoning:
+// docs/notes/2026-11-to-12-simulation-record.md, "Choices where the papers are open, and why").
 
 World tinyWorld() {
   World w;
@@ -290,7 +290,8 @@ World aekfWorld() {
   // The loop at 0.7 of its first drawing (about 365 m, 120 s, 4900 control steps) and the
   // landmarks within 15 m of it (was 30 m): about 3 landmarks per observation set instead of 1.7.
   // With 1.7 even an unbiased EKF with the true associations was inconsistent (ANEES 18 over 20
-  // runs, docs/notes/2026-11-to-12-simulation-record.md), so the world could not show what AEKF adds.
+  // runs, docs/notes/2026-11-to-12-simulation-record.md), so the world could not show what AEKF
+  // adds.
   for (Eigen::Vector2d& p : w.waypoints) p *= 0.7;
   w.area_min *= 0.7;
   w.area_max *= 0.7;

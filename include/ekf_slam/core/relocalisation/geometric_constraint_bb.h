@@ -45,7 +45,8 @@
 //   unary_probability   [0.95]   unary gate chi2(1, p)
 //   descriptor_sigma    [0.1]    std dev of one descriptor (trunk diameter) [m]
 //   range_sigma         [0]      range noise of one observation for the constraints [m]; 0: the
-//                                observation's own R (see docs/notes/2026-11-to-12-relocalisation-record.md: a filter's R
+//                                observation's own R (see
+//                                docs/notes/2026-11-to-12-relocalisation-record.md: a filter's R
 //                                may be inflated, which blunts the binary constraint)
 //   bearing_sigma       [0]      bearing noise likewise [rad]; 0: the observation's own R
 //   landmark_sigma_cap  [0]      a map landmark's covariance is capped at this std dev for the

@@ -70,8 +70,7 @@ void MoverSpeed::scanDone(const AssociationContext& ctx, const AssociationResult
     Matrix23d G;
     Eigen::Matrix2d C;
     ctx.sightingPosition(ctx.robotPose(), o.z, o.R, o.kind, &G, &C);
-    Eigen::Vector4d unused = Eigen::Vector4d::Zero();
-    StaticTest::addToTrack(&a.track_info, &unused, Eigen::Vector2d::Zero(), C, ctx.stamp(),
+    StaticTest::addToTrack(&a.track_info, nullptr, Eigen::Vector2d::Zero(), C, ctx.stamp(),
                            a.first_seen);
   }
 

@@ -277,6 +277,7 @@ void StaticTest::addToTrack(Eigen::Matrix4d* track_info, Eigen::Vector4d* track_
   track_info->topRightCorner<2, 2>() += dt * W;
   track_info->bottomLeftCorner<2, 2>() += dt * W;
   track_info->bottomRightCorner<2, 2>() += dt * dt * W;
+  if (track_vec == nullptr) return;
   const Eigen::Vector2d wz = W * z;
   track_vec->head<2>() += wz;
   track_vec->tail<2>() += dt * wz;

@@ -87,7 +87,8 @@ class StaticTest {
   double resolvedSpeed(const Tentative& t) const { return resolvedSpeed(t.track_info); }
   /// The same of a track's information (Tentative::track_info).
   double resolvedSpeed(const Eigen::Matrix4d& track_info) const;
-  /// Adds a sighting (noise C, at `stamp`) to a track that started at `first_seen`.
+  /// Adds a sighting (noise C, at `stamp`) to a track that started at `first_seen`; with
+  /// track_vec null, to its information only (how well it resolves a velocity).
   static void addToTrack(Eigen::Matrix4d* track_info, Eigen::Vector4d* track_vec,
                          const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp,
                          double first_seen);

@@ -234,12 +234,10 @@ bool StaticTest::admits(const Tentative& t) const {
   Eigen::Matrix2d J;
   double v2 = 0.0;
   if (!trackVelocity(t, &J, &v2)) return false;
-  // Least eigenvalue of the symmetric 2 x 2 J: the direction the velocity is least known in.
-  const double half_trace = 0.5 * J.trace();
-  const double gap = std::sqrt(std::max(0.0, half_trace * half_trace - J.determinant()));
+  // Along the direction the velocity is least known in.
   const double needed =
       p_.static_min_speed > 0.0 ? baseline_information_ : baselineInformation(v_min);
-  return half_trace - gap >= needed;
+  return leastEigenvalue(J) >= needed;
 }
 
 bool StaticTest::movingAtAdmission(const AssociationContext& ctx, const Tentative& t,
@@ -260,9 +258,7 @@ bool StaticTest::movingAtAdmission(const AssociationContext& ctx, const Tentativ
 double StaticTest::resolvedSpeed(const Eigen::Matrix4d& track_info) const {
   const Eigen::Matrix2d J = velocityInformation(track_info);
   if (!determined(J)) return std::numeric_limits<double>::infinity();
-  const double half_trace = 0.5 * J.trace();
-  const double gap = std::sqrt(std::max(0.0, half_trace * half_trace - J.determinant()));
-  const double lambda = half_trace - gap;
+  const double lambda = leastEigenvalue(J);
   if (!(lambda > 0.0)) return std::numeric_limits<double>::infinity();
   return std::sqrt(baselineInformation(1.0) / lambda);
 }
@@ -287,6 +283,12 @@ Eigen::Matrix2d StaticTest::velocityInformation(const Eigen::Matrix4d& L) {
   const Eigen::Matrix2d Lpp_inv = L.topLeftCorner<2, 2>().inverse();
   const Eigen::Matrix2d Lvp = L.bottomLeftCorner<2, 2>();
   return L.bottomRightCorner<2, 2>() - Lvp * Lpp_inv * Lvp.transpose();
+}
+
+double StaticTest::leastEigenvalue(const Eigen::Matrix2d& J) {
+  const double half_trace = 0.5 * J.trace();
+  const double gap = std::sqrt(std::max(0.0, half_trace * half_trace - J.determinant()));
+  return half_trace - gap;
 }
 
 bool StaticTest::determined(const Eigen::Matrix2d& J) {

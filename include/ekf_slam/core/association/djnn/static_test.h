@@ -96,6 +96,9 @@ class StaticTest {
  private:
   /// The track's velocity information (position marginalised).
   static Eigen::Matrix2d velocityInformation(const Eigen::Matrix4d& track_info);
+  /// The least eigenvalue of the symmetric 2 x 2 J (the information along the direction the
+  /// velocity is least known in).
+  static double leastEigenvalue(const Eigen::Matrix2d& J);
   /// False while the track has no velocity information (one sighting, or one stamp).
   static bool determined(const Eigen::Matrix2d& J);
   /// The fit's velocity information J (inverse covariance of the velocity, position marginalised)

@@ -53,6 +53,7 @@ add_library(ekf_slam_core
   src/core/association/djnn/occluded_misses.cpp
   src/core/association/djnn/beam_spacing_misses.cpp
   src/core/association/djnn/held_sightings.cpp
+  src/core/association/djnn/unmapped_returns.cpp
   src/core/association/djnn/joint_decision.cpp
   src/core/association/djnn/djnn.cpp
   # graph matching (RRW&SC)

@@ -15,6 +15,7 @@
 #include "association_fixtures.h"
 #include "djnn_fixtures.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/association/djnn/unmapped_returns.h"
 #include "ekf_slam/core/association/joint_ml.h"
 #include "ekf_slam/core/common/angles.h"
 
@@ -66,17 +67,16 @@ TEST(JointMaximumLikelihood, BranchAndBoundFindsTheEnumeratedOptimum) {
     std::function<void(int)> all = [&](int k) {
       if (k == 5) {
         std::vector<std::pair<int, int>> pairs;
-        int nulls = 0;
+        double nulls = 0.0;
         for (int i = 0; i < 5; ++i) {
           if (h[i] < 0) {
-            ++nulls;
+            nulls += unmappedCostAt(problem.null_cost, ctx.observations()[i]);
           } else {
             pairs.emplace_back(i, h[i]);
           }
         }
         const double cost = jointInnovationCost(ctx, pairs) +
-                            2.0 * std::log(2.0 * M_PI) * static_cast<double>(pairs.size()) +
-                            problem.null_cost * nulls;
+                            2.0 * std::log(2.0 * M_PI) * static_cast<double>(pairs.size()) + nulls;
         best = std::min(best, cost);
         for (int i = 0; i < 5; ++i) {
           if (h[i] != d.best[i]) other[i] = std::min(other[i], cost);
@@ -168,6 +168,77 @@ TEST(JointMaximumLikelihood, PerEntryNullCostsAreCharged) {
   d = jointMaximumLikelihood(ctx, problem, 6.0);
   ASSERT_TRUE(d.complete);
   EXPECT_EQ(d.best[0], -1);
+}
+
+// "Not in the map" is a density per m^2 of the plane; a pairing's likelihood is a density in the
+// return's measurement space. For a range-bearing return at range r the plane's r dr dphi makes
+// that density r times the planar one; a Cartesian return's is the planar one.
+TEST(JointMaximumLikelihood, NotInTheMapIsADensityInTheReturnsMeasurementSpace) {
+  Observation o;
+  o.z = Eigen::Vector2d(28.0, 0.3);
+  o.kind = MeasurementKind::kRangeBearing;
+  EXPECT_NEAR(unmappedCostAt(5.0, o), 5.0 - 2.0 * std::log(28.0), 1e-12);
+  o.z = Eigen::Vector2d(0.0, 0.3);  // at the sensor itself: finite
+  EXPECT_TRUE(std::isfinite(unmappedCostAt(5.0, o)));
+  o.kind = MeasurementKind::kCartesian;
+  o.z = Eigen::Vector2d(28.0, 0.3);
+  EXPECT_EQ(unmappedCostAt(5.0, o), 5.0);
+
+  // A return at 28 m a little off a landmark, with "not in the map" 6 + ln 28 dearer per m^2
+  // than the pairing: in the plane's units the pairing would pass the margin (as it did until
+  // 6 Dec 2026, aekf seed 76's wrong closure); in the return's, the null is 2 ln 28 cheaper and
+  // within the margin: held.
+  Scene s;
+  s.pose_cov = assoc_test::poseCov(1.0, 1.0, 0.01);
+  s.R = assoc_test::diag2(0.3, deg2rad(1));
+  const int j = s.addLandmark({28.0, 0.0});
+  s.build();
+  s.observePoint({28.0, 1.5});
+  const AssociationContext ctx = s.context(0);
+  const AssociationContext::Individual ind = ctx.individual(0, j);
+  const double pair = ind.mahalanobis + ind.log_det_S + 2.0 * std::log(2.0 * M_PI);
+  JointMlProblem problem;
+  problem.obs = {0};
+  problem.candidates = {{j}};
+  problem.null_cost = pair + 6.0 + std::log(28.0);
+  const JointMlDecision d = jointMaximumLikelihood(ctx, problem, 6.0);
+  ASSERT_TRUE(d.complete);
+  EXPECT_EQ(d.best[0], j);
+  EXPECT_NEAR(d.alternative_cost[0] - d.best_cost, 6.0 - std::log(28.0), 0.05);
+  EXPECT_LT(d.alternative_cost[0], d.best_cost + 6.0);  // held by the joint decision
+}
+
+// UnmappedReturns measures "not in the map" where the map is: the returns left unpaired (within
+// range) in scans that paired any, per m^2 of the sensor region, shrunk toward the prior with one
+// region's weight, and never above the prior (the density of all landmarks plus clutter).
+TEST(DJNNJoint, UnmappedDensityIsMeasuredWhereTheMapIs) {
+  Scene s;
+  const int j = s.addLandmark({5.0, 0.0});
+  s.build();
+  s.observeLandmark(j);
+  s.observePoint({6.0, 2.0});   // unpaired, in range
+  s.observePoint({40.0, 0.0});  // unpaired, beyond the range: not counted
+  const AssociationContext ctx = s.context(0);
+  LocalScan scan;
+  scan.assign = {0, -1, -1};
+  for (const bool on : {true, false}) {
+    const MapParameterSource params(
+        std::map<std::string, std::string>{{"measure_unmapped_density", on ? "true" : "false"}});
+    UnmappedReturns u;
+    u.read(ParameterReader(params));
+    u.configure(100.0);
+    EXPECT_DOUBLE_EQ(u.density(0.1), 0.1);  // nothing measured yet: the prior
+    for (int k = 0; k < 9; ++k) u.observe(ctx, scan, 30.0);
+    // 9 unpaired over 9 regions of 100 m^2, and one region at the prior: 19 / 1000.
+    EXPECT_NEAR(u.density(0.1), on ? 0.019 : 0.1, 1e-12) << on;
+    LocalScan lost = scan;
+    lost.assign = {-1, -1, -1};  // paired nothing: new ground or a lost robot, not counted
+    for (int k = 0; k < 5; ++k) u.observe(ctx, lost, 30.0);
+    EXPECT_NEAR(u.density(0.1), on ? 0.019 : 0.1, 1e-12) << on;
+    EXPECT_NEAR(u.density(0.002), 0.002, 1e-12) << on;  // measured (9.2 / 1000) above the prior
+    u.reset();
+    EXPECT_DOUBLE_EQ(u.density(0.1), 0.1);
+  }
 }
 
 // A landmark revisited with the pose known to centimetres, its observation a little off (D^2 of

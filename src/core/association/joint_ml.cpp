@@ -14,9 +14,11 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// "Not in the map" for entry k: its own cost when the problem gives one per entry.
-double nullCost(const JointMlProblem& p, int k) {
-  return p.null_costs.empty() ? p.null_cost : p.null_costs[k];
+// "Not in the map" for entry k (its own cost when the problem gives one per entry), in the
+// entry's measurement space.
+double nullCost(const AssociationContext& ctx, const JointMlProblem& p, int k) {
+  const double per_m2 = p.null_costs.empty() ? p.null_cost : p.null_costs[k];
+  return unmappedCostAt(per_m2, ctx.observations()[p.obs[k]]);
 }
 
 // Depth-first search over the observations (fewest options first), each option ordered by its
@@ -32,12 +34,13 @@ class Search {
       return problem.candidates[a].size() < problem.candidates[b].size();
     });
     options_.resize(m);
+    null_.resize(m);
+    for (int k = 0; k < m; ++k) null_[k] = nullCost(ctx, problem, k);
     suffix_bound_.assign(m + 1, 0.0);
     for (int d = m - 1; d >= 0; --d) {
       const int k = order_[d];
       const int obs = problem.obs[k];
-      std::vector<std::pair<double, Option>> scored{
-          {nullCost(problem, k), Option{-1, -1, -1, 0.0}}};
+      std::vector<std::pair<double, Option>> scored{{null_[k], Option{-1, -1, -1, 0.0}}};
       for (int j : problem.candidates[k]) {
         const AssociationContext::Individual ind = ctx.individual(obs, j);
         scored.emplace_back(ind.mahalanobis + ind.log_det_S + log_2pi2_, Option{j, obs, j, 0.0});
@@ -56,7 +59,7 @@ class Search {
       // at least ln|R| + 2 ln 2 pi. "Not in the map" costs null_cost.
       const double det_r = ctx.observations()[obs].R.determinant();
       const double pair_bound = det_r > 0.0 ? std::log(det_r) + log_2pi2_ : -kInf;
-      suffix_bound_[d] = suffix_bound_[d + 1] + std::min(nullCost(problem, k), pair_bound);
+      suffix_bound_[d] = suffix_bound_[d + 1] + std::min(null_[k], pair_bound);
     }
   }
 
@@ -113,7 +116,7 @@ class Search {
       if (k == forbid_entry_ && o.value == forbid_value_) continue;
       current_[k] = o.value;
       if (o.value == -1) {
-        const double null = nullCost(problem_, k);
+        const double null = null_[k];
         descend(d + 1, cost + null, nulls + null, charged);
         continue;
       }
@@ -178,6 +181,7 @@ class Search {
   const double log_2pi2_;
   std::vector<int> order_;                    ///< search depth -> entry of problem.obs
   std::vector<std::vector<Option>> options_;  ///< per depth, best first
+  std::vector<double> null_;                  ///< per entry: "not in the map" (nullCost)
   std::vector<double> suffix_bound_;          ///< per depth: least cost of the entries from there
   double limit_ = kInf;
   int forbid_entry_ = -1, forbid_value_ = -2;
@@ -208,6 +212,13 @@ double jointInnovationCost(const AssociationContext& ctx,
   return v.dot(llt.solve(v)) + log_det;
 }
 
+double unmappedCostAt(double cost_per_m2, const Observation& o) {
+  if (o.kind != MeasurementKind::kRangeBearing) return cost_per_m2;
+  // The density r * lambda: -2 ln r on top (a return at the sensor itself has none; floored).
+  constexpr double kMinRange = 1e-3;  // [m]
+  return cost_per_m2 - 2.0 * std::log(std::max(o.z(0), kMinRange));
+}
+
 JointMlDecision jointMaximumLikelihood(const AssociationContext& ctx, const JointMlProblem& problem,
                                        double margin) {
   const int m = static_cast<int>(problem.obs.size());
@@ -216,7 +227,7 @@ JointMlDecision jointMaximumLikelihood(const AssociationContext& ctx, const Join
   out.alternative_cost.assign(m, kInf);
   out.alternative.assign(m, {});
   out.best_cost = 0.0;  // everything out of the map: always a hypothesis
-  for (int k = 0; k < m; ++k) out.best_cost += nullCost(problem, k);
+  for (int k = 0; k < m; ++k) out.best_cost += nullCost(ctx, problem, k);
   if (m == 0) {
     out.complete = true;
     return out;

@@ -16,6 +16,12 @@ namespace ekf_slam {
 double jointInnovationCost(const AssociationContext& ctx,
                            const std::vector<std::pair<int, int>>& pairs);
 
+/// A density of "not in the map" given per m^2 of the plane (-2 ln of it: `cost_per_m2`), as -2 ln
+/// of the density in observation o's measurement space, where the pairings' likelihoods N(v; 0, S)
+/// are: a range-bearing return spreads the plane's r dr dphi over dr dphi, so its density there
+/// is r times the planar one (a Cartesian one's is the planar one).
+double unmappedCostAt(double cost_per_m2, const Observation& o);
+
 /// A pairing with something other than a map landmark itself (a remembered feature, docs/djnn.md
 /// "Remembered sightings"): observation `obs` of the context (e.g. a virtual one) with landmark
 /// `landmark`, exclusive under the key `target` (>= 0, one per remembered feature), at `cost`
@@ -33,9 +39,11 @@ struct JointMlProblem {
   /// Optional (empty, or one list per entry of obs): further options of each entry; taking one
   /// is reported in JointMlDecision::best as -2 - target.
   std::vector<std::vector<JointMlExtra>> extra;
-  double null_cost = 0.0;  ///< -2 ln(density per m^2) of "not in the map" for one observation
-  /// Optional (empty, or one per entry of obs): that entry's own cost of "not in the map",
-  /// instead of null_cost.
+  /// -2 ln(density per m^2) of "not in the map" for one observation (taken to its measurement
+  /// space by unmappedCostAt).
+  double null_cost = 0.0;
+  /// Optional (empty, or one per entry of obs): that entry's own cost of "not in the map" (per
+  /// m^2, as null_cost), instead of null_cost.
   std::vector<double> null_costs;
   std::size_t max_nodes = 200000;  ///< search budget per search (all searches: m + 1)
 };

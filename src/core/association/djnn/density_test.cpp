@@ -52,16 +52,11 @@ void DensityTest::observe(const AssociationContext& ctx, const DjnnPaper& paper,
   area_seen_ += region_area_;
 }
 
-double DensityTest::unmappedCost(double clutter_density) const {
-  return -2.0 * std::log(density() + clutter_density);
-}
-
-void DensityTest::apply(const AssociationContext& ctx, double clutter_density, LocalScan* scan,
+void DensityTest::apply(const AssociationContext& ctx, double null_cost, LocalScan* scan,
                         DjnnStats* stats) const {
   if (!on()) return;
   std::vector<int>& assign = scan->assign;
   const int m = static_cast<int>(assign.size());
-  const double null_cost = unmappedCost(clutter_density);
   const double log_2pi = std::log(2.0 * M_PI);
   // -2 ln N(v; 0, S) of the pairings of assign but `skip` (-1: none).
   std::vector<std::pair<int, int>> pairs;
@@ -73,17 +68,18 @@ void DensityTest::apply(const AssociationContext& ctx, double clutter_density, L
     return jointInnovationCost(ctx, pairs) + 2.0 * static_cast<double>(pairs.size()) * log_2pi;
   };
   // Each pairing is judged given the others (-2 ln of its conditional likelihood: the joint cost
-  // with it less the joint cost without it): a marker never seen before paired with an old one a
-  // metre off, next to pairings that fix the pose, stands out; withdrawn worst first.
+  // with it less the joint cost without it) against "not in the map" in its measurement space: a
+  // marker never seen before paired with an old one a metre off, next to pairings that fix the
+  // pose, stands out; withdrawn worst first.
   while (true) {
     const double all = cost(-1);
     int worst = -1;
-    double worst_cost = null_cost;
+    double worst_excess = 0.0;
     for (int i = 0; i < m; ++i) {
       if (assign[i] < 0) continue;
-      const double c = all - cost(i);
-      if (!(c <= worst_cost)) {
-        worst_cost = c;
+      const double excess = all - cost(i) - unmappedCostAt(null_cost, ctx.observations()[i]);
+      if (!(excess <= worst_excess)) {
+        worst_excess = excess;
         worst = i;
       }
     }

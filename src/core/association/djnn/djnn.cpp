@@ -69,6 +69,8 @@ void DJNN::configure(const ParameterSource& user) {
   beam_spacing.read(r);
   HeldSightings held_sightings;
   held_sightings.read(r);
+  UnmappedReturns unmapped;
+  unmapped.read(r);
 
   p.paper = paper;
   p.ambiguity = ambiguity.params();
@@ -84,6 +86,7 @@ void DJNN::configure(const ParameterSource& user) {
   p.occlusion = occlusion.params();
   p.beam_spacing = beam_spacing.params();
   p.held_sightings = held_sightings.params();
+  p.unmapped = unmapped.params();
   p_ = p;
   ambiguity_ = ambiguity;
   static_test_ = static_test;
@@ -98,9 +101,11 @@ void DJNN::configure(const ParameterSource& user) {
   occlusion_ = occlusion;
   beam_spacing_ = beam_spacing;
   held_sightings_ = held_sightings;
+  unmapped_ = unmapped;
 
   paper_.configure(p_.paper);
   density_test_.configure(p_.paper.sensor);
+  unmapped_.configure(density_test_.regionArea());
   static_test_.configure(p_.paper.admit_evidence, mover_speed_.on());
   mover_speed_.configure(p_.paper.tentative_timeout);
   bias_test_.configure();
@@ -114,6 +119,7 @@ void DJNN::reset() {
   bias_test_.reset();
   joint_.reset();
   density_test_.reset();
+  unmapped_.reset();
   remembered_.reset();
   confirmation_.clear();
   scan_ = LocalScan();
@@ -156,18 +162,20 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   // closure the joint decision weighs every hypothesis the density test weighs, the scan shifted
   // onto gated neighbours included, and more.
   ambiguity_.apply(ctx, paper_, &scan_);
-  const JointDecision::Parts parts{paper_,
-                                   ambiguity_.gate(),
-                                   density_test_.unmappedCost(p_.paper.sensor.clutter_density),
-                                   p_.paper.sensor.clutter_density,
-                                   spacing_,
-                                   remembered_,
-                                   confirmation_};
+  // "Not in the map", for the joint decision and the density test alike: a landmark the map does
+  // not hold yet, or clutter, per m^2 (UnmappedReturns: measured where the map is).
+  const double clutter = p_.paper.sensor.clutter_density;
+  const double unmapped_prior = density_test_.density() + clutter;
+  const double null_cost = -2.0 * std::log(unmapped_.density(unmapped_prior));
+  const JointDecision::Parts parts{
+      paper_, ambiguity_.gate(), null_cost, clutter, spacing_, remembered_, confirmation_,
+  };
   // Without a density of "not in the map" yet (an estimate before any mapped landmark was in
   // view), the joint decision has no null hypothesis: the scan is decided as without it.
-  const bool unmapped_known = density_test_.density() + p_.paper.sensor.clutter_density > 0.0;
+  const bool unmapped_known = unmapped_prior > 0.0;
   if (!joint_.on() || !unmapped_known || !joint_.decide(ctx, parts, &scan_, &stats_)) {
-    density_test_.apply(ctx, p_.paper.sensor.clutter_density, &scan_, &stats_);
+    density_test_.apply(ctx, null_cost, &scan_, &stats_);
+    unmapped_.observe(ctx, scan_, p_.paper.sensor.max_range);
   }
   scan_.countPairings();
   for (int i = 0; i < m; ++i) {

@@ -41,10 +41,11 @@ class DensityTest {
   bool on() const { return p_.density_test && density() > 0.0; }
   /// Feeds the estimate with this scan's local region (after DjnnPaper::localRegion).
   void observe(const AssociationContext& ctx, const DjnnPaper& paper, const LocalScan& scan);
-  /// -2 ln of "a landmark not in the map, or clutter" per observation (also the joint
-  /// decision's "not in the map").
-  double unmappedCost(double clutter_density) const;
-  void apply(const AssociationContext& ctx, double clutter_density, LocalScan* scan,
+  /// The sensor region's area [m^2].
+  double regionArea() const { return region_area_; }
+  /// Withdraws the pairings that do not beat "not in the map", -2 ln of a density per m^2
+  /// (`null_cost`; each observation's in its measurement space: unmappedCostAt).
+  void apply(const AssociationContext& ctx, double null_cost, LocalScan* scan,
              DjnnStats* stats) const;
 
  private:

@@ -19,7 +19,9 @@
 //   missed-detection profile (missed_detection_profile.h): the defaults of the parts above for a
 //                        sensor with detection_probability < 1
 //   JointDecision        loop_closure_age, joint_margin  wrong pairings at loop closures (its
-//                                                        "not in the map": DensityTest's density)
+//                                                        "not in the map": UnmappedReturns')
+//   UnmappedReturns      measure_unmapped_density        closures made or held on a null that
+//                                                        overstates what is left unmapped
 //   RememberedFeatures   remembered_sightings, held_birth_cost   holes in the map at closures
 //   LandmarkSpacing      landmark_spacing                duplicates after an over-confident closure
 //   HeldConfirmation     held_confirmations              a closure decided on one scan's noise
@@ -55,6 +57,7 @@
 #include "ekf_slam/core/association/djnn/occluded_misses.h"
 #include "ekf_slam/core/association/djnn/remembered_features.h"
 #include "ekf_slam/core/association/djnn/static_test.h"
+#include "ekf_slam/core/association/djnn/unmapped_returns.h"
 
 namespace ekf_slam {
 
@@ -79,6 +82,7 @@ class DJNN : public DataAssociation, private FeatureRules {
     OccludedMisses::Params occlusion;
     BeamSpacingMisses::Params beam_spacing;
     HeldSightings::Params held_sightings;
+    UnmappedReturns::Params unmapped;
   };
 
   DJNN();
@@ -139,6 +143,7 @@ class DJNN : public DataAssociation, private FeatureRules {
   OccludedMisses occlusion_;
   BeamSpacingMisses beam_spacing_;
   HeldSightings held_sightings_;
+  UnmappedReturns unmapped_;
 
   LocalScan scan_;
   std::vector<double> pending_new_;  ///< per observation of the last scan: T at admission, or -1

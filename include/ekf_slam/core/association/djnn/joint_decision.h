@@ -34,7 +34,7 @@ class JointDecision {
   struct Parts {
     const DjnnPaper& paper;
     double ambiguity_gate;
-    double unmapped_cost;  ///< -2 ln (landmark_density + clutter_density)
+    double unmapped_cost;  ///< -2 ln of "not in the map" per m^2 (UnmappedReturns::density)
     double clutter_density;
     const LandmarkSpacing& spacing;
     RememberedFeatures& remembered;

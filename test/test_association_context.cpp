@@ -102,6 +102,10 @@ TEST(AssociationContext, JointCovarianceMatchesDenseReference) {
   EXPECT_TRUE(S.isApprox(S_ref, 1e-12));
   EXPECT_TRUE(ctx.innovationCovariance(2, 3, 1, 4).isApprox(S_ref.block<2, 2>(2, 4), 1e-12));
   EXPECT_TRUE(ctx.innovationCovariance(2, 3, 2, 5).isApprox(S_ref.block<2, 2>(2, 6), 1e-12));
+  // The blocks of the last pair with the ones before it, stacked (the joint search's extension).
+  Eigen::MatrixXd stacked(2 * (k - 1), 2);
+  ctx.innovationCovariances(pairs, k - 1, pairs[k - 1].first, pairs[k - 1].second, stacked);
+  EXPECT_TRUE(stacked.isApprox(S_ref.block(0, 2 * (k - 1), 2 * (k - 1), 2), 1e-12));
   const double d2_ref = v_ref.dot(S_ref.ldlt().solve(v_ref));
   EXPECT_NEAR(ctx.jointMahalanobis(pairs), d2_ref, 1e-8 * d2_ref);
   EXPECT_DOUBLE_EQ(ctx.jointMahalanobis({}), 0.0);

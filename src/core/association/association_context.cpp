@@ -137,18 +137,40 @@ Eigen::Vector2d AssociationContext::sightingPosition(const Eigen::Vector3d& xv,
 
 Eigen::Matrix2d AssociationContext::innovationCovariance(int obs_a, int lm_a, int obs_b,
                                                          int lm_b) const {
-  const Prediction& a = prediction(lm_a, obs_[obs_a].kind);
-  const Prediction& b = prediction(lm_b, obs_[obs_b].kind);
+  return innovationCovariance(obs_a, lm_a, obs_b, lm_b, shareOf(obs_b, lm_b));
+}
+
+void AssociationContext::innovationCovariances(const std::vector<std::pair<int, int>>& pairs,
+                                               std::size_t count, int obs, int lm,
+                                               Eigen::Ref<Eigen::MatrixXd> out) const {
+  const PairShare b = shareOf(obs, lm);
+  for (std::size_t a = 0; a < count; ++a) {
+    out.middleRows<2>(2 * static_cast<Eigen::Index>(a)) =
+        innovationCovariance(pairs[a].first, pairs[a].second, obs, lm, b);
+  }
+}
+
+AssociationContext::PairShare AssociationContext::shareOf(int obs, int lm) const {
+  const Prediction& b = prediction(lm, obs_[obs].kind);
   const auto P = ekf_.storedCovariance();  // a view, no copy; the blocks read here are current
+  const int rb = ekf_.stateRow(lm);
+  return {&b, rb,
+          P.topLeftCorner<3, 3>() * b.H_pose.transpose() +
+              P.block<3, 2>(0, rb) * b.H_landmark.transpose()};
+}
+
+Eigen::Matrix2d AssociationContext::innovationCovariance(int obs_a, int lm_a, int obs_b, int lm_b,
+                                                         const PairShare& share) const {
+  const Prediction& a = prediction(lm_a, obs_[obs_a].kind);
+  const Prediction& b = *share.pred;
+  const auto P = ekf_.storedCovariance();
   const int ra = ekf_.stateRow(lm_a);
-  const int rb = ekf_.stateRow(lm_b);
   // cov(v_a, v_b) = H_a P H_b^T (+ R when both pairs use the same observation); the pose block
   // is what correlates pairs on different landmarks even when the map blocks are independent.
-  const Eigen::Matrix<double, 3, 2> PvHb = P.topLeftCorner<3, 3>() * b.H_pose.transpose() +
-                                           P.block<3, 2>(0, rb) * b.H_landmark.transpose();
-  const Eigen::Matrix<double, 2, 2> PmHb = P.block<2, 3>(ra, 0) * b.H_pose.transpose() +
-                                           ekf_.blockCovariance(ra, rb) * b.H_landmark.transpose();
-  Eigen::Matrix2d C = a.H_pose * PvHb + a.H_landmark * PmHb;
+  const Eigen::Matrix<double, 2, 2> PmHb =
+      P.block<2, 3>(ra, 0) * b.H_pose.transpose() +
+      ekf_.blockCovariance(ra, share.row) * b.H_landmark.transpose();
+  Eigen::Matrix2d C = a.H_pose * share.PvHb + a.H_landmark * PmHb;
   if (obs_a == obs_b) C += obs_[obs_a].R;
   // The second-order terms are the landmark's prediction's: shared by two pairs on it.
   if (lm_a == lm_b && obs_[obs_a].kind == obs_[obs_b].kind) C += a.extra;

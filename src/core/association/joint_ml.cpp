@@ -147,11 +147,20 @@ class Search {
     Eigen::Matrix2d D = ctx_.innovationCovariance(obs, lm, obs, lm);
     D = 0.5 * (D + D.transpose()).eval();
     auto B = cross_.topRows(r);
-    for (Eigen::Index a = 0; a < p; ++a) {
-      B.middleRows<2>(2 * a) =
-          ctx_.innovationCovariance(pairs_[a].first, pairs_[a].second, obs, lm);
+    ctx_.innovationCovariances(pairs_, static_cast<std::size_t>(p), obs, lm, B);
+    // B = L^-1 B by forward substitution, column by column of L (contiguous): Eigen's general
+    // triangular solver is built for wide right-hand sides and costs most of the search on this
+    // two-column one.
+    for (Eigen::Index c = 0; c < r; ++c) {
+      const double* Lc = L_.col(c).data();
+      B(c, 0) /= Lc[c];
+      B(c, 1) /= Lc[c];
+      const double b0 = B(c, 0), b1 = B(c, 1);
+      for (Eigen::Index a = c + 1; a < r; ++a) {
+        B(a, 0) -= Lc[a] * b0;
+        B(a, 1) -= Lc[a] * b1;
+      }
     }
-    L_.topLeftCorner(r, r).triangularView<Eigen::Lower>().solveInPlace(B);
     const Eigen::Matrix2d Sc = D - B.transpose() * B;
     const Eigen::Vector2d w = v - B.transpose() * y_.head(r);
     if (!(Sc(0, 0) > 0.0)) return joint_cost_[p + 1] = kInf;

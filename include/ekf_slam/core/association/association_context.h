@@ -86,6 +86,10 @@ class AssociationContext {
   /// (obs_b, lm_b), through the full covariance (pose and map correlations); includes R when the
   /// two pairs share the observation.
   Eigen::Matrix2d innovationCovariance(int obs_a, int lm_a, int obs_b, int lm_b) const;
+  /// innovationCovariance of each of the first `count` pairs of `pairs` with the pair (obs, lm),
+  /// stacked in `out` (2 count x 2): the second pair's share is computed once.
+  void innovationCovariances(const std::vector<std::pair<int, int>>& pairs, std::size_t count,
+                             int obs, int lm, Eigen::Ref<Eigen::MatrixXd> out) const;
   /// Joint innovation and its covariance for a hypothesis (pairs of obs, landmark index).
   void jointInnovation(const std::vector<std::pair<int, int>>& pairs, Eigen::VectorXd* v,
                        Eigen::MatrixXd* S) const;
@@ -96,6 +100,17 @@ class AssociationContext {
   std::size_t evaluations() const { return evaluations_; }
 
  private:
+  /// The second pair's share of innovationCovariance: P [H_pose H_landmark]^T over the pose
+  /// rows and its landmark's rows.
+  struct PairShare {
+    const Prediction* pred;
+    int row;                           ///< its landmark's state row
+    Eigen::Matrix<double, 3, 2> PvHb;  ///< P_pose,: H_b^T
+  };
+  PairShare shareOf(int obs, int lm) const;
+  Eigen::Matrix2d innovationCovariance(int obs_a, int lm_a, int obs_b, int lm_b,
+                                       const PairShare& b) const;
+
   const EkfSlam& ekf_;
   const RangeBearingModel& model_;
   const LandmarkIndex& index_;

@@ -47,6 +47,7 @@ add_library(ekf_slam_core
   src/core/association/djnn/follow_pose.cpp
   src/core/association/djnn/density_test.cpp
   src/core/association/djnn/missed_detection_profile.cpp
+  src/core/association/djnn/detection_estimate.cpp
   src/core/association/djnn/landmark_spacing.cpp
   src/core/association/djnn/remembered_features.cpp
   src/core/association/djnn/held_confirmation.cpp

@@ -10,8 +10,9 @@ namespace ekf_slam {
 namespace assoc_test {
 
 // The paper's settings (0.95 gates, admission when seen twice, no static / bias tests, no density
-// estimate or joint decision at loop closures): the hand-made problems of the tests are worked out
-// for them. `params` override them.
+// estimate or joint decision at loop closures, P_D 1 stated so that it is not estimated): the
+// hand-made problems of the tests are worked out for them. `params` override them; an empty value
+// leaves the key unset.
 inline DJNN makeDjnn(const std::map<std::string, std::string>& params = {}) {
   std::map<std::string, std::string> p = {{"individual_probability", "0.95"},
                                           {"ambiguity_probability", "0.95"},
@@ -19,8 +20,15 @@ inline DJNN makeDjnn(const std::map<std::string, std::string>& params = {}) {
                                           {"static_test", "false"},
                                           {"bias_test", "false"},
                                           {"estimate_landmark_density", "false"},
-                                          {"loop_closure_age", "0"}};
-  for (const auto& kv : params) p[kv.first] = kv.second;
+                                          {"loop_closure_age", "0"},
+                                          {"detection_probability", "1"}};
+  for (const auto& kv : params) {
+    if (kv.second.empty()) {
+      p.erase(kv.first);
+    } else {
+      p[kv.first] = kv.second;
+    }
+  }
   DJNN d;
   d.configure(MapParameterSource(p));
   return d;

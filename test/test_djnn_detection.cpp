@@ -1,6 +1,7 @@
 // DJNN with a sensor model: the detection-probability-aware evidence score reproduces the paper's
 // counter exactly at P_D = 1 without clutter, keeps landmarks a low-P_D sensor sees only now and
 // then, and the minimum range / polygon bound the sensor region. docs/djnn.md.
+#include <cmath>
 #include <map>
 #include <random>
 #include <string>
@@ -25,15 +26,18 @@ void clearScan(Scene* s) {
 
 // Random hits and misses of three landmarks in view: DJNN's evidence must equal the paper's
 // integer counter T = initial + hits - misses, scan by scan, and the landmark leave exactly when
-// T reaches 0; with the defaults and with P_D = 1 / no clutter spelled out.
+// T reaches 0; with P_D = 1 / no clutter spelled out, and with P_D unset and the profile off (the
+// paper's configuration, config/djnn_paper.yaml: nothing is estimated).
 TEST(DJNNDetection, PaperCounterIsReproducedAtDetectionProbabilityOne) {
   for (const bool explicit_model : {false, true}) {
     Scene s;
     const std::vector<Eigen::Vector2d> where = {{10, 0}, {12, 6}, {15, -4}};
     for (const auto& p : where) s.addLandmark(p);
     s.build();
-    DJNN d = explicit_model ? makeDjnn({{"detection_probability", "1"}, {"clutter_density", "0"}})
-                            : makeDjnn();
+    DJNN d = explicit_model
+                 ? makeDjnn({{"detection_probability", "1"}, {"clutter_density", "0"}})
+                 : makeDjnn({{"detection_probability", ""}, {"missed_detection_profile", "false"}});
+    EXPECT_FALSE(d.detectionEstimate().on());
     std::mt19937 rng(7);
     const double rate[] = {0.8, 0.5, 0.35};
     std::vector<int> expected(where.size(), 2);  // initial_evidence
@@ -248,6 +252,84 @@ TEST(DJNNDetection, MissedDetectionProfileIsOnBelowDetectionProbabilityOne) {
       makeDjnn({{"detection_probability", "0.7"}, {"missed_detection_profile", "false"}});
   EXPECT_FALSE(bare.params().follow_pose.tentative_follow_pose);
   EXPECT_EQ(bare.params().confirmation.held_confirmations, 0);
+}
+
+// The exact bound the switch uses: closed forms at no hit (1 - 0.01^(1/n)) and at one miss
+// (0.99^(1/n)), the normal approximation for many looks, 1 without misses.
+TEST(DJNNDetection, BinomialUpperBoundIsClopperPearson) {
+  EXPECT_NEAR(binomialUpperBound(0, 2, 0.99), 0.9, 1e-9);
+  EXPECT_NEAR(binomialUpperBound(0, 10, 0.99), 1.0 - std::pow(0.01, 0.1), 1e-9);
+  EXPECT_NEAR(binomialUpperBound(9, 10, 0.99), std::pow(0.99, 0.1), 1e-9);
+  EXPECT_NEAR(binomialUpperBound(700, 1000, 0.99), 0.7 + 2.326 * std::sqrt(0.21 / 1000), 0.003);
+  EXPECT_EQ(binomialUpperBound(10, 10, 0.99), 1.0);
+  EXPECT_EQ(binomialUpperBound(0, 0, 0.99), 1.0);
+  EXPECT_LT(binomialUpperBound(60, 100, 0.99), binomialUpperBound(60, 90, 0.99));
+}
+
+// P_D not set (docs/djnn.md, "P_D estimated online"): twelve landmarks in view, each seen with
+// probability `rate` per scan. A sensor that misses a third of them is found to (once, with a
+// notice), and from then DJNN counts with the estimate and has the missed-detection profile on; one
+// that misses few stays the paper's, P_D 1 and the plain parameters. A stated P_D is never
+// estimated.
+TEST(DJNNDetection, DetectionProbabilityNotSetIsEstimatedFromTheMap) {
+  auto run = [](double rate, const std::map<std::string, std::string>& params, int* notices,
+                int* switched_at) {
+    Scene s;
+    for (int k = 0; k < 12; ++k) s.addLandmark({8.0 + 1.5 * k, -6.0 + (k % 4) * 4.0});
+    s.build();
+    DJNN d = makeDjnn(params);
+    std::mt19937 rng(11);
+    *notices = 0;
+    *switched_at = -1;
+    for (int scan = 0; scan < 80; ++scan) {
+      clearScan(&s);
+      for (int k = 0; k < 12; ++k) {
+        if (std::bernoulli_distribution(rate)(rng)) s.observeLandmark(k);
+      }
+      if (s.observations.empty()) continue;
+      const AssociationResult r = d.associate(s.context(0.1 * scan));
+      if (!r.notice.empty()) {
+        ++*notices;
+        *switched_at = scan;
+      }
+    }
+    return d;
+  };
+  int notices = 0, at = -1;
+  const DJNN camera = run(0.6, {{"detection_probability", ""}}, &notices, &at);
+  EXPECT_EQ(notices, 1);
+  EXPECT_GE(at, 0);
+  EXPECT_LT(at, 20);
+  EXPECT_TRUE(camera.detectionEstimate().switched());
+  EXPECT_NEAR(camera.detectionProbability(), 0.6, 0.08);
+  EXPECT_TRUE(camera.params().follow_pose.tentative_follow_pose);
+  EXPECT_TRUE(camera.params().static_test.static_heading);
+  EXPECT_EQ(camera.params().bias.bias_keep_pairings, 10);
+  EXPECT_EQ(camera.params().confirmation.held_confirmations, 1);
+
+  const DJNN laser = run(0.97, {{"detection_probability", ""}}, &notices, &at);
+  EXPECT_EQ(notices, 0);
+  EXPECT_TRUE(laser.detectionEstimate().on());
+  EXPECT_FALSE(laser.detectionEstimate().switched());
+  EXPECT_GT(laser.detectionEstimate().looks(), 500.0);
+  EXPECT_EQ(laser.detectionProbability(), 1.0);
+  EXPECT_FALSE(laser.params().follow_pose.tentative_follow_pose);
+  EXPECT_EQ(laser.params().bias.bias_keep_pairings, 0);
+
+  const DJNN stated = run(0.6, {{"detection_probability", "1"}}, &notices, &at);
+  EXPECT_EQ(notices, 0);
+  EXPECT_FALSE(stated.detectionEstimate().on());
+  EXPECT_EQ(stated.detectionProbability(), 1.0);
+  EXPECT_FALSE(stated.params().follow_pose.tentative_follow_pose);
+
+  // The user's own values win over the profile's at the switch too.
+  const DJNN told =
+      run(0.6, {{"detection_probability", ""}, {"tentative_follow_pose", "false"}}, &notices, &at);
+  EXPECT_TRUE(told.detectionEstimate().switched());
+  EXPECT_FALSE(told.params().follow_pose.tentative_follow_pose);
+  EXPECT_TRUE(told.params().static_test.static_heading);
+
+  EXPECT_THROW(makeDjnn({{"detection_switch_level", "1.5"}}), ParameterError);
 }
 
 // Loop closures are decided jointly whatever the sensor (6 Dec 2026: in djnn_strong a walker

@@ -481,6 +481,8 @@ void EkfSlamNode::process(const SensorInput& input, double stamp) {
     ROS_WARN_THROTTLE(5.0, "ekf_slam: scan at %.3f older than the filter: used at %.3f (%lu)",
                       stamp, pipeline_->time(), static_cast<unsigned long>(c.late_scans));
   }
+  if (!report.association.notice.empty())
+    ROS_WARN("ekf_slam: %s", report.association.notice.c_str());
   reportRecovery(report);
   const double latency = (ros::WallTime::now() - input.received).toSec();
   latency_sum_ += latency;

@@ -144,6 +144,7 @@ OfflineSummary runOffline(const OfflineOptions& o, std::ostream& log) {
   // One processed scan: its record, the caller's look, the problem dump.
   const auto recordScan = [&](const ScanReport& r, const ObservationsInput* input) {
     record.add(r, pipeline, input);
+    if (!r.association.notice.empty()) log << "warning: " << r.association.notice << "\n";
     if (o.on_scan) o.on_scan(r, pipeline);
     if (o.dump_problem_scan && r.scan == *o.dump_problem_scan) {
       capturing->disarm();

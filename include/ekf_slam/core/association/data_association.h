@@ -53,6 +53,9 @@ struct AssociationResult {
   /// observation, is wrong (SlamPipeline's lost rule 3, docs/relocalisation.md). Associators that
   /// cannot tell leave 0.
   int gate_refused = 0;
+  /// Something the user should know about the configuration, said once (e.g. DJNN found that the
+  /// sensor misses landmarks while no detection_probability was set); the shells log it.
+  std::string notice;
 
   void resize(std::size_t n) {
     decision.assign(n, Decision::kRejected);
@@ -61,6 +64,7 @@ struct AssociationResult {
     remove.clear();
     ended_features.clear();
     gate_refused = 0;
+    notice.clear();
   }
   void pair(std::size_t obs, LandmarkId id) {
     decision[obs] = Decision::kPaired;

@@ -29,6 +29,15 @@ void DJNN::configure(const ParameterSource& user) {
   const ParameterDefaults profiled(user, missedDetectionDefaults());
   const bool profile = ParameterReader(user).flag("missed_detection_profile", true);
   const bool misses = profile && paper.sensor.detection_probability < 1.0;
+  // A P_D the user did not give is estimated online; the profile then waits for the estimate.
+  bool pd_set = true;
+  try {
+    double pd;
+    pd_set = user.get("detection_probability", &pd);
+  } catch (const std::invalid_argument&) {
+    pd_set = true;  // set, with a wrong type: read() said so
+  }
+  const bool estimate_pd = profile && !pd_set;
   const ParameterSource& params = misses ? static_cast<const ParameterSource&>(profiled) : user;
   // Every part reads its own parameters; nothing changes unless all of them are valid.
   const ParameterReader r(params);
@@ -71,6 +80,8 @@ void DJNN::configure(const ParameterSource& user) {
   held_sightings.read(r);
   UnmappedReturns unmapped;
   unmapped.read(r);
+  DetectionEstimate detection;
+  detection.read(r);
 
   p.paper = paper;
   p.ambiguity = ambiguity.params();
@@ -87,7 +98,36 @@ void DJNN::configure(const ParameterSource& user) {
   p.beam_spacing = beam_spacing.params();
   p.held_sightings = held_sightings.params();
   p.unmapped = unmapped.params();
+  p.detection = detection.params();
+  // The profiled parts' parameters, for the switch when the estimate shows misses.
+  Profiled q{p.static_test, p.mover_speed, p.follow_pose, p.density,
+             p.bias,        p.remembered,  p.confirmation};
+  if (estimate_pd) {
+    const ParameterReader pr(profiled);
+    StaticTest s;
+    s.read(pr);
+    q.static_test = s.params();
+    MoverSpeed ms;
+    ms.read(pr);
+    q.mover_speed = ms.params();
+    FollowPose fp;
+    fp.read(pr);
+    q.follow_pose = fp.params();
+    DensityTest dt;
+    dt.read(pr);
+    q.density = dt.params();
+    BiasTest b;
+    b.read(pr);
+    q.bias = b.params();
+    RememberedFeatures rf;
+    rf.read(pr);
+    q.remembered = rf.params();
+    HeldConfirmation hc;
+    hc.read(pr);
+    q.confirmation = hc.params();
+  }
   p_ = p;
+  profiled_ = q;
   ambiguity_ = ambiguity;
   static_test_ = static_test;
   mover_speed_ = mover_speed;
@@ -102,6 +142,8 @@ void DJNN::configure(const ParameterSource& user) {
   beam_spacing_ = beam_spacing;
   held_sightings_ = held_sightings;
   unmapped_ = unmapped;
+  detection_ = detection;
+  detection_.configure(estimate_pd);
 
   paper_.configure(p_.paper);
   density_test_.configure(p_.paper.sensor);
@@ -112,6 +154,27 @@ void DJNN::configure(const ParameterSource& user) {
   reset();
 }
 
+void DJNN::missesDetected(AssociationResult* result) {
+  p_.static_test = profiled_.static_test;
+  p_.mover_speed = profiled_.mover_speed;
+  p_.follow_pose = profiled_.follow_pose;
+  p_.density = profiled_.density;
+  p_.bias = profiled_.bias;
+  p_.remembered = profiled_.remembered;
+  p_.confirmation = profiled_.confirmation;
+  static_test_.setParams(p_.static_test);
+  mover_speed_.setParams(p_.mover_speed);
+  follow_pose_.setParams(p_.follow_pose);
+  density_test_.setParams(p_.density);
+  bias_test_.setParams(p_.bias);
+  remembered_.setParams(p_.remembered);
+  confirmation_.setParams(p_.confirmation);
+  static_test_.configure(p_.paper.admit_evidence, mover_speed_.on());
+  bias_test_.configure();
+  result->notice = detection_.notice();
+}
+
+// The detection estimate is kept: the sensor is the same one.
 void DJNN::reset() {
   paper_.reset();
   static_test_.reset();
@@ -188,6 +251,10 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   const std::size_t removed_before = result.remove.size();
   occlusion_.mark(ctx, &scan_);
   beam_spacing_.mark(ctx, &scan_);
+  // A P_D not set is measured on the map's landmarks; once they show that the sensor misses
+  // them, the profile comes on and the evidence counts with the estimate.
+  if (detection_.observe(ctx, paper_, scan_, result)) missesDetected(&result);
+  if (detection_.switched()) paper_.setDetectionProbability(detection_.estimate());
   paper_.countMapEvidence(ctx, scan_, &result, &stats_);
   for (std::size_t k = removed_before; k < result.remove.size(); ++k)
     bias_test_.forget(result.remove[k]);

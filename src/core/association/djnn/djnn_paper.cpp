@@ -96,6 +96,11 @@ void DjnnPaper::configure(const DjnnPaperParams& params) {
   reset();
 }
 
+void DjnnPaper::setDetectionProbability(double pd) {
+  p_.sensor.detection_probability = std::clamp(pd, 0.05, 1.0);
+  model_.configure(p_.sensor, tentative_gate_);
+}
+
 void DjnnPaper::reset() {
   evidence_.clear();
   tentatives_.clear();

@@ -32,6 +32,8 @@ class BiasTest {
   void read(const ParameterReader& r);
   void configure();
   const Params& params() const { return p_; }
+  /// Parameters read elsewhere (DJNN switching to the missed-detection profile mid-run).
+  void setParams(const Params& p) { p_ = p; }
   bool on() const { return p_.bias_test; }
   void reset() {
     bias_.clear();

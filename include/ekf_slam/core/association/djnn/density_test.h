@@ -34,6 +34,8 @@ class DensityTest {
   void configure(const SensorModel& sensor);
   void reset();
   const Params& params() const { return p_; }
+  /// Parameters read elsewhere (DJNN switching to the missed-detection profile mid-run).
+  void setParams(const Params& p) { p_ = p; }
   bool estimating() const { return p_.landmark_density <= 0.0 && p_.estimate_landmark_density; }
   /// The density in use: the configured one, or the estimate (0 before any).
   double density() const;

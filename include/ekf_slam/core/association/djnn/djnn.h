@@ -18,6 +18,9 @@
 //                                                        a new landmark paired with an old one
 //   missed-detection profile (missed_detection_profile.h): the defaults of the parts above for a
 //                        sensor with detection_probability < 1
+//   DetectionEstimate    detection_probability not set, detection_switch_level
+//                                                        a sensor that misses landmarks configured
+//                                                        as one that sees them all
 //   JointDecision        loop_closure_age, joint_margin  wrong pairings at loop closures (its
 //                                                        "not in the map": UnmappedReturns')
 //   UnmappedReturns      measure_unmapped_density        closures made or held on a null that
@@ -46,6 +49,7 @@
 #include "ekf_slam/core/association/djnn/beam_spacing_misses.h"
 #include "ekf_slam/core/association/djnn/bias_test.h"
 #include "ekf_slam/core/association/djnn/density_test.h"
+#include "ekf_slam/core/association/djnn/detection_estimate.h"
 #include "ekf_slam/core/association/djnn/djnn_paper.h"
 #include "ekf_slam/core/association/djnn/follow_pose.h"
 #include "ekf_slam/core/association/djnn/held_confirmation.h"
@@ -83,6 +87,7 @@ class DJNN : public DataAssociation, private FeatureRules {
     BeamSpacingMisses::Params beam_spacing;
     HeldSightings::Params held_sightings;
     UnmappedReturns::Params unmapped;
+    DetectionEstimate::Params detection;
   };
 
   DJNN();
@@ -104,6 +109,9 @@ class DJNN : public DataAssociation, private FeatureRules {
   const Params& params() const { return p_; }
   /// The density of unmapped landmarks in use: landmark_density, or its online estimate.
   double landmarkDensity() const { return density_test_.density(); }
+  /// P_D of the evidence steps: detection_probability, or its online estimate (DetectionEstimate).
+  double detectionProbability() const { return paper_.params().sensor.detection_probability; }
+  const DetectionEstimate& detectionEstimate() const { return detection_; }
   /// What learn_mover_speed learned: MoverSpeed::speed() is the speed the static test uses.
   const MoverSpeed& moverSpeed() const { return mover_speed_; }
   Case lastCase() const { return last_case_; }
@@ -127,6 +135,8 @@ class DJNN : public DataAssociation, private FeatureRules {
   void sighted(const AssociationContext& ctx, int slot, int obs, bool born) override;
   Decision decide(const AssociationContext& ctx, int obs, int slot, double evidence,
                   bool paper_admits) override;
+  /// DetectionEstimate found that the sensor misses landmarks: the profile's parameters on.
+  void missesDetected(AssociationResult* result);
 
   Params p_;
   DjnnPaper paper_;  // with its EvidenceModel
@@ -144,6 +154,18 @@ class DJNN : public DataAssociation, private FeatureRules {
   BeamSpacingMisses beam_spacing_;
   HeldSightings held_sightings_;
   UnmappedReturns unmapped_;
+  DetectionEstimate detection_;
+  /// The parts' parameters with the missed-detection profile, for DetectionEstimate's switch.
+  struct Profiled {
+    StaticTest::Params static_test;
+    MoverSpeed::Params mover_speed;
+    FollowPose::Params follow_pose;
+    DensityTest::Params density;
+    BiasTest::Params bias;
+    RememberedFeatures::Params remembered;
+    HeldConfirmation::Params confirmation;
+  };
+  Profiled profiled_;
 
   LocalScan scan_;
   std::vector<double> pending_new_;  ///< per observation of the last scan: T at admission, or -1

@@ -157,6 +157,8 @@ class DjnnPaper {
  public:
   void configure(const DjnnPaperParams& params);
   const DjnnPaperParams& params() const { return p_; }
+  /// P_D of the evidence steps from now on (DetectionEstimate: estimated online when not set).
+  void setDetectionProbability(double pd);
   double gate() const { return gate_; }
   double tentativeGate() const { return tentative_gate_; }
   /// p_sensor inside the sensor region grown by `radial` [m] in range and `lateral` [m] across

@@ -24,6 +24,8 @@ class FollowPose {
   };
   void read(const ParameterReader& r);
   const Params& params() const { return p_; }
+  /// Parameters read elsewhere (DJNN switching to the missed-detection profile mid-run).
+  void setParams(const Params& p) { p_ = p; }
 
   /// The sighting's covariance for the gate with a tentative feature: the observation noise
   /// plus, unless the features follow the pose, the pose covariance once; *lever_var the heading

@@ -29,6 +29,8 @@ class HeldConfirmation {
   };
   void read(const ParameterReader& r);
   const Params& params() const { return p_; }
+  /// Parameters read elsewhere (DJNN switching to the missed-detection profile mid-run).
+  void setParams(const Params& p) { p_ = p; }
   bool on() const { return p_.held_confirmations > 0; }
   void clear() { leads_.clear(); }
   bool empty() const { return leads_.empty(); }

@@ -32,6 +32,8 @@ class MoverSpeed {
   };
   void read(const ParameterReader& r);
   const Params& params() const { return p_; }
+  /// Parameters read elsewhere (DJNN switching to the missed-detection profile mid-run).
+  void setParams(const Params& p) { p_ = p; }
   bool on() const { return p_.learn_mover_speed; }
   /// The window a landmark's sightings are counted in: the tentative feature's lifetime.
   void configure(double tentative_timeout);

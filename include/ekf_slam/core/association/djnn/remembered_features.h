@@ -44,6 +44,8 @@ class RememberedFeatures {
 
   void read(const ParameterReader& r);
   const Params& params() const { return p_; }
+  /// Parameters read elsewhere (DJNN switching to the missed-detection profile mid-run).
+  void setParams(const Params& p) { p_ = p; }
   bool on() const { return p_.remembered_sightings > 0; }
   void reset();
 

@@ -39,6 +39,8 @@ class StaticTest {
   /// a speed will be learned (MoverSpeed), so every feature's track is kept from its start.
   void configure(int admit_evidence, bool learning);
   const Params& params() const { return p_; }
+  /// Parameters read elsewhere (DJNN switching to the missed-detection profile mid-run).
+  void setParams(const Params& p) { p_ = p; }
   /// Forgets the learned speed (a new run).
   void reset() { learned_speed_ = 0.0; }
   /// The speed MoverSpeed learned (0: none yet), used while static_min_speed is 0.

@@ -14,6 +14,14 @@ namespace ekf_slam {
 
 namespace {
 constexpr int kMaxEvidence = 1000000;
+
+// A part's parameters as `r` gives them.
+template <class Part>
+typename Part::Params paramsOf(const ParameterReader& r) {
+  Part part;
+  part.read(r);
+  return part.params();
+}
 }  // namespace
 
 DJNN::DJNN() {
@@ -104,27 +112,13 @@ void DJNN::configure(const ParameterSource& user) {
              p.bias,        p.remembered,  p.confirmation};
   if (estimate_pd) {
     const ParameterReader pr(profiled);
-    StaticTest s;
-    s.read(pr);
-    q.static_test = s.params();
-    MoverSpeed ms;
-    ms.read(pr);
-    q.mover_speed = ms.params();
-    FollowPose fp;
-    fp.read(pr);
-    q.follow_pose = fp.params();
-    DensityTest dt;
-    dt.read(pr);
-    q.density = dt.params();
-    BiasTest b;
-    b.read(pr);
-    q.bias = b.params();
-    RememberedFeatures rf;
-    rf.read(pr);
-    q.remembered = rf.params();
-    HeldConfirmation hc;
-    hc.read(pr);
-    q.confirmation = hc.params();
+    q.static_test = paramsOf<StaticTest>(pr);
+    q.mover_speed = paramsOf<MoverSpeed>(pr);
+    q.follow_pose = paramsOf<FollowPose>(pr);
+    q.density = paramsOf<DensityTest>(pr);
+    q.bias = paramsOf<BiasTest>(pr);
+    q.remembered = paramsOf<RememberedFeatures>(pr);
+    q.confirmation = paramsOf<HeldConfirmation>(pr);
   }
   p_ = p;
   profiled_ = q;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include <Eigen/LU>
 
@@ -14,6 +15,16 @@ namespace ekf_slam {
 
 namespace {
 constexpr int kMaxEvidence = 1000000;
+
+// Whether the source gives `name` (a number): set with a wrong type counts, read() says so.
+bool isSet(const ParameterSource& source, const std::string& name) {
+  try {
+    double value;
+    return source.get(name, &value);
+  } catch (const std::invalid_argument&) {
+    return true;
+  }
+}
 
 // A part's parameters as `r` gives them.
 template <class Part>
@@ -38,14 +49,7 @@ void DJNN::configure(const ParameterSource& user) {
   const bool profile = ParameterReader(user).flag("missed_detection_profile", true);
   const bool misses = profile && paper.sensor.detection_probability < 1.0;
   // A P_D the user did not give is estimated online; the profile then waits for the estimate.
-  bool pd_set = true;
-  try {
-    double pd;
-    pd_set = user.get("detection_probability", &pd);
-  } catch (const std::invalid_argument&) {
-    pd_set = true;  // set, with a wrong type: read() said so
-  }
-  const bool estimate_pd = profile && !pd_set;
+  const bool estimate_pd = profile && !isSet(user, "detection_probability");
   const ParameterSource& params = misses ? static_cast<const ParameterSource&>(profiled) : user;
   // Every part reads its own parameters; nothing changes unless all of them are valid.
   const ParameterReader r(params);
@@ -61,17 +65,10 @@ void DJNN::configure(const ParameterSource& user) {
   DensityTest density;
   density.read(r);
   JointDecision joint;
-  bool age_set = false;
-  try {
-    double age;
-    age_set = params.get("loop_closure_age", &age);
-  } catch (const std::invalid_argument&) {
-    age_set = true;  // set, with a wrong type: read() says so
-  }
   joint.read(r,
              density.params().landmark_density > 0.0 || density.estimating() ||
                  paper.sensor.clutter_density > 0.0,
-             age_set);
+             isSet(params, "loop_closure_age"));
   RememberedFeatures remembered;
   remembered.read(r);
   LandmarkSpacing spacing;

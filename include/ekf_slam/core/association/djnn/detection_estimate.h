@@ -1,15 +1,15 @@
 // DJNN extension "detection probability estimated online" (detection_probability not set;
-// docs/djnn.md, "A sensor that misses landmarks"). A camera's datasheet rarely states how often a
-// marker in view is detected, and DJNN left at P_D = 1 with a sensor that misses a third of its
-// landmarks keeps its tentative features too short and its gates too tight: `fiducials` with the
-// line left out closed 2 of 4 seeds wrongly (F1 0.79 and 0.83). When the user sets no value, DJNN
-// starts as with P_D = 1 and counts what its evidence counter sees: over every scan, the map's
-// landmarks in the penalty region (not hidden, the scan not held) are looks, weighted by the share
-// of P_D the beams give them (BeamSpacingMisses), and those paired are hits. Once the hit rate is
-// below detection_switch_level with 99 % confidence, the sensor misses landmarks: DJNN takes the
-// missed-detection profile's defaults (under the user's values, as a stated P_D < 1 would) and
-// counts evidence with the estimate, brought up to date every scan. A sensor that sees what it
-// should never gets there, and DJNN stays exactly as with P_D = 1.
+// docs/djnn.md, "P_D estimated online"). A camera's datasheet rarely states how often a marker in
+// view is detected, and DJNN left at P_D = 1 with a sensor that misses a third of its landmarks
+// drops its tentative features and removes its landmarks on misses, with the missed-detection
+// profile off: `fiducials` with the line left out closed 12 of 20 runs wrongly. When the user sets
+// no value, DJNN starts as with P_D = 1 and counts what its evidence counter sees: over every
+// scan, the map's landmarks in the penalty region (not hidden, the scan not held) are looks,
+// weighted by the share of P_D the beams give them (BeamSpacingMisses), and those paired are hits.
+// Once the hit rate is below detection_switch_level with 99 % confidence, the sensor misses
+// landmarks: DJNN takes the missed-detection profile's defaults (under the user's values, as a
+// stated P_D < 1 would) and counts evidence with the estimate, brought up to date every scan. A
+// sensor that sees what it should never gets there, and DJNN stays exactly as with P_D = 1.
 #pragma once
 
 #include <string>

@@ -97,8 +97,9 @@ void DjnnPaper::configure(const DjnnPaperParams& params) {
 }
 
 void DjnnPaper::setDetectionProbability(double pd) {
+  // Only the one number: configure() would copy the sensor model (its polygon) every scan.
   p_.sensor.detection_probability = std::clamp(pd, 0.05, 1.0);
-  model_.configure(p_.sensor, tentative_gate_);
+  model_.setDetectionProbability(p_.sensor.detection_probability);
 }
 
 void DjnnPaper::reset() {

@@ -106,6 +106,8 @@ class EvidenceModel {
   /// +1 / -1 for P_D = 1 without clutter. `detectable`: the share of P_D the sensor had at the
   /// feature (the beams' spacing, BeamSpacingMisses); P_D times it is this feature's P_D.
   double step(bool hit, const Eigen::Matrix2d& C, double detectable = 1.0) const;
+  /// The sensor's P_D from now on (DetectionEstimate), the rest of its model kept.
+  void setDetectionProbability(double pd) { sensor_.detection_probability = pd; }
 
  private:
   SensorModel sensor_;

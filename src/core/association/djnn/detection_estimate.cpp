@@ -86,7 +86,9 @@ bool DetectionEstimate::observe(const AssociationContext& ctx, const DjnnPaper& 
     looks_ += scan.detectableAt(k);
     if (scan.count[k] > 0) hits_ += 1.0;
   }
-  if (switched_ || !(upperBound() < p_.detection_switch_level)) return false;
+  // The bound is never below the rate itself: no bisection while the rate is above the level.
+  if (switched_ || estimate() >= p_.detection_switch_level) return false;
+  if (!(upperBound() < p_.detection_switch_level)) return false;
   switched_ = true;
   return true;
 }

@@ -323,5 +323,109 @@ TEST(DJNNAdmission, AdmittedLandmarksWindowResolvesItsSpeedOnce) {
   EXPECT_EQ(d.moverSpeed().speed(), 0.0);  // no mover left
 }
 
+// The watch of a removed landmark's place (mover_left_odds, docs/djnn.md "A mover left only once
+// its place shows empty"), on MoverSpeed alone. A landmark DJNN admitted at (3, 0.5) m, paired at
+// scan 0, is removed at scan 1 by something other than its misses (one miss since its pairing, as
+// when the bias test removes it); P_D is 0.2, so an empty look is 1.25 times likelier if it left.
+class PlaceWatch {
+ public:
+  explicit PlaceWatch(const std::string& odds) {
+    s_ = cameraScene();
+    s_.addLandmark(place_);
+    s_.build();
+    DjnnPaperParams pp;
+    pp.sensor.detection_probability = 0.2;
+    paper_.configure(pp);
+    test_.configure(7, true);
+    m_.read(ParameterReader(
+        MapParameterSource({{"learn_mover_speed", "true"}, {"mover_left_odds", odds}})));
+    m_.configure(60.0);
+    // Admitted after 7 sightings 0.2 s apart.
+    Tentative t;
+    for (int i = 0; i < 7; ++i) {
+      StaticTest::addToTrack(&t.track_info, nullptr, Eigen::Vector2d::Zero(),
+                             assoc_test::diag2(0.15, 0.15), 0.2 * i, 0.0);
+    }
+    m_.beginScan(1);
+    m_.admitting(0, t, test_);
+    m_.landmarkAdded(0, Scene::idOf(0));
+    scan(Decision::kPaired, true);
+    scan(Decision::kTentative, false, true);
+  }
+  /// One scan whose one observation is decided `d` and lies at the place when `seen` (else far
+  /// off); `remove`: the landmark is removed in it (it leaves the map after the scan).
+  void scan(Decision d, bool seen, bool remove = false) {
+    s_.observations.clear();
+    s_.truth.clear();
+    s_.observePoint(seen ? place_ : Eigen::Vector2d(2.0, -1.0));
+    const AssociationContext ctx = s_.context(0.2 * k_++);
+    AssociationResult r;
+    r.decision = {d};
+    r.landmark = {d == Decision::kPaired ? Scene::idOf(0) : kNoLandmark};
+    if (remove) r.remove = {Scene::idOf(0)};
+    LocalScan ls;
+    ls.sensor_pose = ctx.robotPose();
+    ls.cand.clear();
+    for (int j = 0; j < static_cast<int>(s_.landmarks.size()); ++j) ls.cand.push_back(j);
+    m_.beginScan(1);
+    m_.scanDone(ctx, r, paper_, ls, 7, test_);
+    if (remove) {
+      s_.landmarks.clear();
+      s_.landmark_covs.clear();
+      s_.true_landmarks.clear();
+      s_.build();
+    }
+  }
+  const MoverSpeed& mover() const { return m_; }
+
+ private:
+  const Eigen::Vector2d place_{3.0, 0.5};
+  Scene s_;
+  DjnnPaper paper_;
+  StaticTest test_;
+  MoverSpeed m_;
+  int k_ = 0;
+};
+
+TEST(DJNNAdmission, RemovedLandmarkIsAMoverOnlyOnceItsPlaceShowsEmpty) {
+  // The place stays empty: a mover that left, learned at the look whose odds pass 100
+  // (ln 100 / ln 1.25 = 20.6: the 21st empty look, the removal scan's included).
+  PlaceWatch gone("100");
+  EXPECT_EQ(gone.mover().watchedPlaces(), 1u);
+  int looks = 1;
+  while (gone.mover().speed() == 0.0 && looks < 100) {
+    gone.scan(Decision::kTentative, false);
+    ++looks;
+  }
+  EXPECT_EQ(looks, 21);
+  EXPECT_EQ(gone.mover().moverSpeeds().size(), 1u);
+  EXPECT_EQ(gone.mover().watchedPlaces(), 0u);
+
+  // Something returns at the place now and then: each return starts the count again, so 20
+  // empty looks in a row are never reached; after tentative_timeout (60 s) the watch ends.
+  PlaceWatch back("100");
+  for (int i = 0; i < 400; ++i) back.scan(Decision::kTentative, i % 15 == 0);
+  EXPECT_EQ(back.mover().speed(), 0.0);
+  EXPECT_EQ(back.mover().watchedPlaces(), 0u);
+
+  // A landmark admitted at the place: a static point the map had lost, mapped again.
+  PlaceWatch lost("100");
+  lost.scan(Decision::kTentative, true);
+  EXPECT_EQ(lost.mover().watchedPlaces(), 1u);
+  lost.scan(Decision::kNew, true);
+  EXPECT_EQ(lost.mover().watchedPlaces(), 0u);
+  EXPECT_EQ(lost.mover().placesStillOccupied(), 1u);
+  for (int i = 0; i < 100; ++i) lost.scan(Decision::kTentative, false);
+  EXPECT_EQ(lost.mover().speed(), 0.0);
+
+  // mover_left_odds 0, the rule before: a mover at the removal.
+  PlaceWatch at_once("0");
+  EXPECT_GT(at_once.mover().speed(), 0.0);
+  EXPECT_EQ(at_once.mover().watchedPlaces(), 0u);
+
+  EXPECT_EQ(DJNN().params().mover_speed.mover_left_odds, 100.0);
+  EXPECT_THROW(makeDjnn({{"mover_left_odds", "-1"}}), ParameterError);
+}
+
 }  // namespace test_djnn_admission
 }  // namespace ekf_slam

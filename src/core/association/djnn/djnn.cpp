@@ -254,8 +254,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   held_sightings_.join(ctx, scan_, this, &paper_, &result, &stats_);
   paper_.countFeatureEvidence(ctx, &scan_, &result, this, &stats_);
 
-  mover_speed_.scanDone(ctx, result, scan_.cand, paper_.tentativeGate(), p_.paper.admit_evidence,
-                        static_test_);
+  mover_speed_.scanDone(ctx, result, paper_, scan_, p_.paper.admit_evidence, static_test_);
   static_test_.useLearnedSpeed(mover_speed_.speed());
   if (joint_.on()) {
     joint_.record(result, scan_.stamp);

@@ -7,11 +7,17 @@
 
 namespace ekf_slam {
 
+namespace {
+// A P_D of 1 would make one empty look proof: kept finite.
+constexpr double kMaxPd = 0.999;
+}  // namespace
+
 void MoverSpeed::read(const ParameterReader& r) {
   const Params def;
   p_.learn_mover_speed = r.flag("learn_mover_speed", def.learn_mover_speed);
   p_.mover_speed_samples = r.integer("mover_speed_samples", def.mover_speed_samples, 1, 1000000);
   p_.mover_wait_budget = r.inRange("mover_wait_budget", def.mover_wait_budget, 0.0, 0.5);
+  p_.mover_left_odds = r.inRange("mover_left_odds", def.mover_left_odds, 0.0, 1e12);
 }
 
 void MoverSpeed::configure(double tentative_timeout) {
@@ -23,6 +29,9 @@ void MoverSpeed::reset() {
   pending_.clear();
   admitted_.clear();
   in_window_.clear();
+  leavers_.clear();
+  still_there_ = 0;
+  scans_ = 0;
   mover_speeds_.clear();
   window_speeds_.clear();
   learned_ = 0.0;
@@ -33,6 +42,7 @@ double MoverSpeed::speed() const { return learned_ > 0.0 ? std::max(learned_, bo
 
 void MoverSpeed::beginScan(int m) {
   if (!on()) return;
+  ++scans_;
   pending_.assign(m, Admitted());
   for (Admitted& a : pending_) a.resolved_speed = -1.0;
 }
@@ -53,16 +63,20 @@ void MoverSpeed::landmarkAdded(int obs, LandmarkId id) {
 }
 
 void MoverSpeed::scanDone(const AssociationContext& ctx, const AssociationResult& result,
-                          const std::vector<int>& cand, double gate, int admit_evidence,
+                          const DjnnPaper& paper, const LocalScan& scan, int admit_evidence,
                           const StaticTest& test) {
+  watchPlaces(ctx, result, paper, scan);
   if (admitted_.empty()) return;
   const EkfSlam& ekf = ctx.ekf();
+  const std::vector<int>& cand = scan.cand;
+  const double gate = paper.tentativeGate();
   for (std::size_t i = 0; i < result.decision.size(); ++i) {
     if (result.decision[i] != Decision::kPaired) continue;
     const auto it = admitted_.find(result.landmark[i]);
     if (it == admitted_.end()) continue;
     Admitted& a = it->second;
     ++a.pairings;
+    a.last_paired = scans_;
     if (!a.in_window) continue;
     // Only the information of the track counts (how well it would have resolved a velocity),
     // which needs the sighting's noise, not where it lies.
@@ -73,6 +87,8 @@ void MoverSpeed::scanDone(const AssociationContext& ctx, const AssociationResult
     StaticTest::addToTrack(&a.track_info, nullptr, Eigen::Vector2d::Zero(), C, ctx.stamp(),
                            a.first_seen);
   }
+
+  countMisses(ctx, paper, scan, admit_evidence);
 
   for (LandmarkId id : result.remove) {
     const auto it = admitted_.find(id);
@@ -91,7 +107,19 @@ void MoverSpeed::scanDone(const AssociationContext& ctx, const AssociationResult
       const Eigen::Matrix2d S = ekf.landmarkCovariance(k) + ekf.landmarkCovariance(j);
       duplicate = duplicate || d.dot(S.inverse() * d) <= gate;
     }
-    if (!duplicate) moverLeft(a.resolved_speed);
+    if (duplicate) continue;
+    if (!(p_.mover_left_odds > 0.0)) {
+      moverLeft(a.resolved_speed);
+      continue;
+    }
+    // Its place is watched from the next scan on, its looks since its last pairing counted.
+    Leaver l;
+    l.position = ekf.landmark(k);
+    l.covariance = ekf.landmarkCovariance(k);
+    l.speed = a.resolved_speed;
+    l.removed_at = ctx.stamp();
+    l.log_odds = -a.misses * std::log1p(-std::min(paper.detectionProbability(), kMaxPd));
+    if (!leftIfSure(l)) leavers_.push_back(l);
   }
 
   // Windows that ended this scan (removed landmarks leave no sample: they were not mapped).
@@ -107,6 +135,70 @@ void MoverSpeed::scanDone(const AssociationContext& ctx, const AssociationResult
     windowEnded(test.resolvedSpeed(it->second.track_info));
   }
   in_window_.resize(kept);
+}
+
+void MoverSpeed::countMisses(const AssociationContext& ctx, const DjnnPaper& paper,
+                             const LocalScan& scan, int admit_evidence) {
+  if (!(p_.mover_left_odds > 0.0) || scan.held) return;
+  const EkfSlam& ekf = ctx.ekf();
+  const std::vector<LandmarkId>& ids = ekf.landmarkIds();
+  for (int j : scan.cand) {
+    const auto it = admitted_.find(ids[j]);
+    if (it == admitted_.end() || it->second.pairings >= admit_evidence) continue;
+    Admitted& a = it->second;
+    if (a.last_paired == scans_) {
+      a.misses = 0;
+    } else if (paper.inPenaltyRegion(DjnnPaper::inSensorFrame(scan, ekf.landmark(j)))) {
+      ++a.misses;
+    }
+  }
+}
+
+void MoverSpeed::watchPlaces(const AssociationContext& ctx, const AssociationResult& result,
+                             const DjnnPaper& paper, const LocalScan& scan) {
+  if (leavers_.empty() || scan.held) return;
+  // A look that finds the place empty is 1 / (1 - P_D) times likelier if the object left.
+  const double miss = -std::log1p(-std::min(paper.detectionProbability(), kMaxPd));
+  const double gate = paper.tentativeGate();
+  const Eigen::Vector3d pose = ctx.robotPose();
+  const Eigen::Matrix3d P = ctx.ekf().poseCovariance();
+  const std::vector<Observation>& obs = ctx.observations();
+  std::size_t kept = 0;
+  for (Leaver& l : leavers_) {
+    if (ctx.stamp() - l.removed_at > window_) continue;  // never decided: no sample
+    bool done = false;
+    if (paper.inPenaltyRegion(DjnnPaper::inSensorFrame(scan, l.position))) {
+      bool returned = false, admitted = false;
+      for (std::size_t i = 0; i < obs.size(); ++i) {
+        Matrix23d G;
+        Eigen::Matrix2d C;
+        const Eigen::Vector2d p =
+            ctx.sightingPosition(pose, obs[i].z, obs[i].R, obs[i].kind, &G, &C);
+        const Eigen::Matrix2d S = l.covariance + C + G * P * G.transpose();
+        const Eigen::Vector2d d = p - l.position;
+        if (d.dot(S.ldlt().solve(d)) > gate) continue;
+        returned = true;
+        admitted = admitted || (i < result.decision.size() && result.decision[i] == Decision::kNew);
+      }
+      if (admitted) {
+        ++still_there_;  // a static point the map lost: it is mapped again
+        done = true;
+      } else if (returned) {
+        l.log_odds = 0.0;  // something is there: perhaps the mover still, perhaps no mover
+      } else {
+        l.log_odds += miss;
+        done = leftIfSure(l);
+      }
+    }
+    if (!done) leavers_[kept++] = l;
+  }
+  leavers_.resize(kept);
+}
+
+bool MoverSpeed::leftIfSure(const Leaver& l) {
+  if (l.log_odds < std::log(p_.mover_left_odds)) return false;
+  moverLeft(l.speed);
+  return true;
 }
 
 void MoverSpeed::moverLeft(double speed) {

@@ -11,6 +11,8 @@
 //   StaticTest           static_*                        slow movers admitted as landmarks
 //   MoverSpeed           learn_mover_speed, mover_wait_budget
 //                                                        the same, with no speed stated
+//                        mover_left_odds                 a static point the map lost taken for
+//                                                        a mover that left
 //   BiasTest             bias_*                          landmarks dragged along by movers
 //   FollowPose           tentative_follow_pose           tentative features left behind when
 //                                                        the pose is corrected

@@ -161,6 +161,8 @@ class DjnnPaper {
   const DjnnPaperParams& params() const { return p_; }
   /// P_D of the evidence steps from now on (DetectionEstimate: estimated online when not set).
   void setDetectionProbability(double pd);
+  /// P_D the evidence steps count with now (stated, or DetectionEstimate's).
+  double detectionProbability() const { return p_.sensor.detection_probability; }
   double gate() const { return gate_; }
   double tentativeGate() const { return tentative_gate_; }
   /// p_sensor inside the sensor region grown by `radial` [m] in range and `lateral` [m] across

@@ -7,14 +7,20 @@
 // tentative_timeout of its first one resolve a speed, and the learned speed is kept at least at
 // the one all but the budget's share of them resolved. A sample from a static landmark lost by
 // chance, or from a robot that stood still, can otherwise ask for a wait no landmark outlives.
+// mover_left_odds: a removed landmark is a mover that left only once its place has been looked at
+// and found empty often enough that a static point still there would have shown itself; a return
+// at the place starts the count again, a landmark admitted there ends the watch.
 #pragma once
 
+#include <cstdint>
 #include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "ekf_slam/core/association/association_context.h"
+#include "ekf_slam/core/association/djnn/djnn_paper.h"
+#include "ekf_slam/core/association/djnn/local_scan.h"
 #include "ekf_slam/core/association/djnn/static_test.h"
 #include "ekf_slam/core/association/djnn/tentative_set.h"
 #include "ekf_slam/core/common/parameters.h"
@@ -29,6 +35,9 @@ class MoverSpeed {
     /// The share of admitted landmarks the learned wait may keep out of the map past
     /// tentative_timeout; 0: no bound.
     double mover_wait_budget = 0.2;
+    /// The odds (left : still there) the empty looks at a removed landmark's place must reach
+    /// before it counts as a mover that left; 0: it counts when removed.
+    double mover_left_odds = 100.0;
   };
   void read(const ParameterReader& r);
   const Params& params() const { return p_; }
@@ -46,10 +55,11 @@ class MoverSpeed {
   void admitting(int obs, const Tentative& t, const StaticTest& test);
   /// ... as landmark id.
   void landmarkAdded(int obs, LandmarkId id);
-  /// After the scan's decisions: the admitted landmarks' pairings and windows, and the movers
-  /// that left (removed unestablished, with no landmark of `cand` within `gate` of them).
+  /// After the scan's decisions: the admitted landmarks' pairings, misses and windows, the
+  /// places of the landmarks removed unestablished (with no landmark of the scan's candidates
+  /// within the tentative gate of them), and the movers that left.
   void scanDone(const AssociationContext& ctx, const AssociationResult& result,
-                const std::vector<int>& cand, double gate, int admit_evidence,
+                const DjnnPaper& paper, const LocalScan& scan, int admit_evidence,
                 const StaticTest& test);
 
   /// The events scanDone finds: a mover that left, admitted at resolved speed `speed`; the
@@ -69,6 +79,10 @@ class MoverSpeed {
   const std::vector<double>& moverSpeeds() const { return mover_speeds_; }
   /// The speeds the admitted landmarks' windows resolved so far [m/s], in order.
   const std::vector<double>& windowSpeeds() const { return window_speeds_; }
+  /// Removed landmarks whose place is watched (mover_left_odds), and those whose place showed a
+  /// landmark again (a static point the map lost: no sample).
+  std::size_t watchedPlaces() const { return leavers_.size(); }
+  std::size_t placesStillOccupied() const { return still_there_; }
 
  private:
   /// A landmark DJNN admitted: the speed its sightings resolved then, its pairings since, and
@@ -79,12 +93,32 @@ class MoverSpeed {
     Eigen::Matrix4d track_info = Eigen::Matrix4d::Zero();
     double first_seen = 0.0;
     bool in_window = true;
+    std::uint64_t last_paired = 0;  ///< the scan it was last paired in
+    int misses = 0;                 ///< looks at it since, none paired
   };
+  /// The place of a landmark removed unestablished, watched until it shows empty or occupied.
+  struct Leaver {
+    Eigen::Vector2d position;
+    Eigen::Matrix2d covariance;
+    double speed = 0.0;       ///< the speed its sightings resolved at admission
+    double removed_at = 0.0;  ///< [s]
+    double log_odds = 0.0;  ///< ln P(looks | left) / P(looks | still there), since the last return
+  };
+  void countMisses(const AssociationContext& ctx, const DjnnPaper& paper, const LocalScan& scan,
+                   int admit_evidence);
+  /// The watched places seen by this scan: counts them and learns from the ones that left.
+  void watchPlaces(const AssociationContext& ctx, const AssociationResult& result,
+                   const DjnnPaper& paper, const LocalScan& scan);
+  /// Counts a place as left (moverLeft) once its odds reach mover_left_odds; returns whether.
+  bool leftIfSure(const Leaver& l);
   Params p_;
   double window_ = 0.0;            ///< tentative_timeout [s]; 0: no bound
   std::vector<Admitted> pending_;  ///< per observation of the scan; resolved_speed < 0: none
   std::unordered_map<LandmarkId, Admitted> admitted_;
   std::vector<LandmarkId> in_window_;  ///< admitted landmarks whose window is open
+  std::vector<Leaver> leavers_;
+  std::size_t still_there_ = 0;
+  std::uint64_t scans_ = 0;
   std::vector<double> mover_speeds_;
   std::vector<double> window_speeds_;
   double learned_ = 0.0;

@@ -365,7 +365,6 @@ class PlaceWatch {
     if (remove) r.remove = {Scene::idOf(0)};
     LocalScan ls;
     ls.sensor_pose = ctx.robotPose();
-    ls.cand.clear();
     for (int j = 0; j < static_cast<int>(s_.landmarks.size()); ++j) ls.cand.push_back(j);
     m_.beginScan(1);
     m_.scanDone(ctx, r, paper_, ls, 7, test_);

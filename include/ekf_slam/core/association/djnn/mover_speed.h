@@ -98,6 +98,7 @@ class MoverSpeed {
   };
   /// The place of a landmark removed unestablished, watched until it shows empty or occupied.
   struct Leaver {
+    /// At the removal, in the map frame (later corrections do not move it: the watch is short).
     Eigen::Vector2d position;
     Eigen::Matrix2d covariance;
     double speed = 0.0;       ///< the speed its sightings resolved at admission

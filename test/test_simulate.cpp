@@ -502,6 +502,27 @@ TEST(Simulate, ErrorsLeaveNoFiles) {
   EXPECT_THROW(writeSimulationBag(o, log), std::runtime_error);
 }
 
+// The laser world's scans are ray-cast: movers or clutter asked of it would be in the truth but in
+// no scan, so they are refused rather than dropped.
+TEST(Simulate, LaserWorldRefusesMoversAndClutter) {
+  TempDir dir("ekf_slam_simulate");
+  std::ostringstream log;
+  SimulationBagOptions o;
+  o.world = "beacons";
+  o.out_path = (dir.path() / "b.bag").string();
+  o.movers = 10;
+  try {
+    writeSimulationBag(o, log);
+    ADD_FAILURE() << "movers were accepted for the laser world";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("ray-cast"), std::string::npos) << e.what();
+  }
+  o.movers.reset();
+  o.clutter_rate = 2.0;
+  EXPECT_THROW(writeSimulationBag(o, log), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(o.out_path));
+}
+
 TEST(Simulate, OfflineRunnerMapsTheWorld) {
   TempDir dir("ekf_slam_simulate");
   std::ostringstream log;
@@ -639,6 +660,13 @@ TEST(SimulateArguments, Parse) {
   EXPECT_EQ(a, SimulateAction::kList);
   ASSERT_TRUE(parse({"--help"}, &o, &a, &error));
   EXPECT_EQ(a, SimulateAction::kHelp);
+
+  // The laser world refuses movers and clutter (its scans are ray-cast); 0 is what it has.
+  o = SimulationBagOptions();
+  EXPECT_FALSE(parse({"--world", "beacons", "--out", "x.bag", "--movers", "5"}, &o, &a, &error));
+  EXPECT_NE(error.find("ray-cast"), std::string::npos) << error;
+  o = SimulationBagOptions();
+  EXPECT_TRUE(parse({"--world", "beacons", "--out", "x.bag", "--movers", "0"}, &o, &a, &error));
 
   // Unknown world: the message lists the known ones.
   o = SimulationBagOptions();

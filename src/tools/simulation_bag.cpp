@@ -186,6 +186,15 @@ std::string worldList() {
   return s;
 }
 
+// A laser world's scans are ray-cast against its poles, cars and walls: point movers and point
+// clutter would be in the truth topics but never in a scan. Empty when the options are fine.
+std::string laserWorldProblem(const SimulationBagOptions& o) {
+  if (!sim::laserWorld(o.world)) return "";
+  if (!(o.movers && *o.movers > 0) && !(o.clutter_rate && *o.clutter_rate > 0.0)) return "";
+  return "--movers and --clutter-rate do not apply to the laser world '" + o.world +
+         "': its scans are ray-cast against its poles, cars and walls (docs/simulation.md)";
+}
+
 }  // namespace
 
 std::string defaultParamsPath(const std::string& bag_path) {
@@ -261,6 +270,8 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
     if (*options.movers < 0) throw std::invalid_argument("the number of movers must be >= 0");
     world.movers.count = *options.movers;
   }
+  const std::string laser_problem = laserWorldProblem(options);
+  if (!laser_problem.empty()) throw std::invalid_argument(laser_problem);
   world.validate();
   const std::uint64_t seed = options.seed.value_or(world.default_seed);
 
@@ -488,8 +499,9 @@ void printSimulateUsage(std::ostream& out, const std::string& program) {
       << "  --seed N           run seed (default: the world's default seed)\n"
       << "  --params-out FILE  parameter YAML (default: FILE.bag with .bag replaced by .yaml)\n"
       << "  --no-params        write no parameter YAML\n"
-      << "  --clutter-rate X   mean clutter returns per observation set (overrides the world's)\n"
-      << "  --movers N         number of moving objects (overrides the world's)\n"
+      << "  --clutter-rate X   mean clutter returns per observation set (overrides the world's;\n"
+      << "                     not beacons, whose scans are ray-cast)\n"
+      << "  --movers N         number of moving objects (overrides the world's; not beacons)\n"
       << "  --no-markers       leave out /true_map_markers and /movers_markers\n"
       << "  --true-noise       observations without covariance and the YAML's noise the\n"
       << "                     simulator's own (checking calibrate_noise, docs/calibration.md)\n"
@@ -579,6 +591,8 @@ bool parseSimulateArguments(const std::vector<std::string>& args, SimulationBagO
     *error = "--out FILE.bag is required";
     return false;
   }
+  *error = laserWorldProblem(*o);
+  if (!error->empty()) return false;
   if (params_out_given && !o->write_params) {
     *error = "--params-out and --no-params contradict each other";
     return false;

@@ -502,8 +502,31 @@ TEST(Simulate, ErrorsLeaveNoFiles) {
   EXPECT_THROW(writeSimulationBag(o, log), std::runtime_error);
 }
 
-// The laser world's scans are ray-cast: movers or clutter asked of it would be in the truth but in
-// no scan, so they are refused rather than dropped.
+// --detection-probability: the sensor misses landmarks at that rate, and the parameter file states
+// it as the datasheet's P_D (DJNN's detection_probability).
+TEST(Simulate, DetectionProbabilityOverride) {
+  TempDir dir("ekf_slam_simulate");
+  std::ostringstream log;
+  SimulationBagOptions o;
+  o.world = "tiny";
+  o.markers = false;
+  o.out_path = (dir.path() / "all.bag").string();
+  const SimulationBagSummary all = writeSimulationBag(o, log);
+  o.detection_probability = 0.5;
+  o.out_path = (dir.path() / "half.bag").string();
+  const SimulationBagSummary half = writeSimulationBag(o, log);
+  const double share = static_cast<double>(half.landmark_observations) /
+                       static_cast<double>(all.landmark_observations);
+  EXPECT_GT(share, 0.45);
+  EXPECT_LT(share, 0.55);
+  const YAML::Node root = YAML::LoadFile(half.params_path);
+  EXPECT_DOUBLE_EQ(root["DJNN"]["detection_probability"].as<double>(), 0.5);
+  const YAML::Node plain = YAML::LoadFile(all.params_path);
+  EXPECT_FALSE(plain["DJNN"]["detection_probability"]);  // tiny's sensor sees everything
+}
+
+// The laser world's scans are ray-cast: movers, clutter or a detection probability asked of it
+// would be in the truth but in no scan, so they are refused rather than dropped.
 TEST(Simulate, LaserWorldRefusesMoversAndClutter) {
   TempDir dir("ekf_slam_simulate");
   std::ostringstream log;
@@ -519,6 +542,9 @@ TEST(Simulate, LaserWorldRefusesMoversAndClutter) {
   }
   o.movers.reset();
   o.clutter_rate = 2.0;
+  EXPECT_THROW(writeSimulationBag(o, log), std::invalid_argument);
+  o.clutter_rate.reset();
+  o.detection_probability = 0.5;
   EXPECT_THROW(writeSimulationBag(o, log), std::invalid_argument);
   EXPECT_FALSE(fs::exists(o.out_path));
 }
@@ -660,6 +686,17 @@ TEST(SimulateArguments, Parse) {
   EXPECT_EQ(a, SimulateAction::kList);
   ASSERT_TRUE(parse({"--help"}, &o, &a, &error));
   EXPECT_EQ(a, SimulateAction::kHelp);
+
+  o = SimulationBagOptions();
+  ASSERT_TRUE(parse({"--world", "fiducials", "--out", "x.bag", "--detection-probability", "0.4"},
+                    &o, &a, &error))
+      << error;
+  EXPECT_EQ(*o.detection_probability, 0.4);
+  for (const char* bad : {"0", "1.5", "x"}) {
+    EXPECT_FALSE(parse({"--world", "fiducials", "--out", "x.bag", "--detection-probability", bad},
+                       &o, &a, &error));
+    EXPECT_NE(error.find("--detection-probability"), std::string::npos) << error;
+  }
 
   // The laser world refuses movers and clutter (its scans are ray-cast); 0 is what it has.
   o = SimulationBagOptions();

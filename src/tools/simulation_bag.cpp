@@ -190,8 +190,11 @@ std::string worldList() {
 // clutter would be in the truth topics but never in a scan. Empty when the options are fine.
 std::string laserWorldProblem(const SimulationBagOptions& o) {
   if (!sim::laserWorld(o.world)) return "";
-  if (!(o.movers && *o.movers > 0) && !(o.clutter_rate && *o.clutter_rate > 0.0)) return "";
-  return "--movers and --clutter-rate do not apply to the laser world '" + o.world +
+  if (!(o.movers && *o.movers > 0) && !(o.clutter_rate && *o.clutter_rate > 0.0) &&
+      !o.detection_probability)
+    return "";
+  return "--movers, --clutter-rate and --detection-probability do not apply to the laser world '" +
+         o.world +
          "': its scans are ray-cast against its poles, cars and walls (docs/simulation.md)";
 }
 
@@ -269,6 +272,13 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
   if (options.movers) {
     if (*options.movers < 0) throw std::invalid_argument("the number of movers must be >= 0");
     world.movers.count = *options.movers;
+  }
+  if (options.detection_probability) {
+    const double pd = *options.detection_probability;
+    if (!(pd > 0.0 && pd <= 1.0))
+      throw std::invalid_argument("the detection probability must lie in (0, 1]");
+    world.sensor.detection_probability = pd;
+    world.sensor.detection_probability_far = pd;
   }
   const std::string laser_problem = laserWorldProblem(options);
   if (!laser_problem.empty()) throw std::invalid_argument(laser_problem);
@@ -461,7 +471,11 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
         "ekf_slam parameters for a simulated bag: world " + world.name + ", seed " +
             std::to_string(seed) +
             (options.clutter_rate ? ", clutter rate " + formatDouble(world.clutter_rate) : "") +
-            (options.movers ? ", " + std::to_string(world.movers.count) + " movers" : "") + ".",
+            (options.movers ? ", " + std::to_string(world.movers.count) + " movers" : "") +
+            (options.detection_probability
+                 ? ", detection probability " + formatDouble(*options.detection_probability)
+                 : "") +
+            ".",
         world.description + ".",
         "Bag: " + std::filesystem::path(options.out_path).filename().string() +
             " (written with it by `rosrun ekf_slam simulate`, docs/simulation.md).",
@@ -485,7 +499,8 @@ SimulationBagSummary writeSimulationBag(const SimulationBagOptions& options, std
 void printSimulateUsage(std::ostream& out, const std::string& program) {
   out << "Usage: " << program
       << " --world NAME --out FILE.bag [--seed N] [--params-out FILE | --no-params]\n"
-      << "       [--clutter-rate X] [--movers N] [--no-markers] [--true-noise]\n"
+      << "       [--clutter-rate X] [--movers N] [--detection-probability P] [--no-markers]\n"
+      << "       [--true-noise]\n"
       << "       " << program << " --list | --help\n"
       << "\n"
       << "Simulates a world (docs/simulation.md) and writes it as a bag the ekf_slam node and\n"
@@ -502,6 +517,9 @@ void printSimulateUsage(std::ostream& out, const std::string& program) {
       << "  --clutter-rate X   mean clutter returns per observation set (overrides the world's;\n"
       << "                     not beacons, whose scans are ray-cast)\n"
       << "  --movers N         number of moving objects (overrides the world's; not beacons)\n"
+      << "  --detection-probability P\n"
+      << "                     the sensor's P_D, the same everywhere in view (overrides the\n"
+      << "                     world's; the parameter file states it; not beacons)\n"
       << "  --no-markers       leave out /true_map_markers and /movers_markers\n"
       << "  --true-noise       observations without covariance and the YAML's noise the\n"
       << "                     simulator's own (checking calibrate_noise, docs/calibration.md)\n"
@@ -559,6 +577,13 @@ bool parseSimulateArguments(const std::vector<std::string>& args, SimulationBagO
         cl.fail("--clutter-rate needs a number >= 0, got '" + v + "'");
       }
       o->clutter_rate = rate;
+    } else if (cl.is("--detection-probability")) {
+      double pd = 0.0;
+      if (!cl.value(&v)) break;
+      if (!parseDouble(v, &pd) || !(pd > 0.0 && pd <= 1.0)) {
+        cl.fail("--detection-probability needs a number in (0, 1], got '" + v + "'");
+      }
+      o->detection_probability = pd;
     } else if (cl.is("--movers")) {
       std::uint64_t n = 0;
       if (!cl.value(&v)) break;

@@ -39,7 +39,9 @@ struct SimulationBagOptions {
   bool write_params = true;            ///< false: no YAML (--no-params)
   std::optional<double> clutter_rate;  ///< overrides world.clutter_rate
   std::optional<int> movers;           ///< overrides world.movers.count
-  bool markers = true;                 ///< also write the rviz marker topics
+  /// Overrides the sensor's detection probability, the same everywhere in view.
+  std::optional<double> detection_probability;
+  bool markers = true;  ///< also write the rviz marker topics
   /// --true-noise, for checking noise calibration (docs/calibration.md): the observations carry
   /// no covariance (the parameter file's sigma_range and sigma_bearing apply) and the file's
   /// odometry noise is the simulator's own (sim::trueNoiseParametersFor; twist worlds only).

@@ -75,14 +75,11 @@ double DetectionEstimate::upperBound() const {
 bool DetectionEstimate::observe(const AssociationContext& ctx, const DjnnPaper& paper,
                                 const LocalScan& scan, const AssociationResult& result) {
   if (!on_ || scan.held) return false;
-  const EkfSlam& ekf = ctx.ekf();
   for (int k = 0; k < scan.candidates(); ++k) {
     const LandmarkId id = ctx.landmarkId(scan.cand[k]);
     if (std::find(result.remove.begin(), result.remove.end(), id) != result.remove.end()) continue;
     // The looks the paper's evidence step counts a miss for.
-    if (scan.isHidden(k)) continue;
-    if (!paper.inPenaltyRegion(DjnnPaper::inSensorFrame(scan, ekf.landmark(scan.cand[k]))))
-      continue;
+    if (!paper.looksAt(ctx, scan, k)) continue;
     looks_ += scan.detectableAt(k);
     if (scan.count[k] > 0) hits_ += 1.0;
   }

@@ -140,15 +140,14 @@ void MoverSpeed::scanDone(const AssociationContext& ctx, const AssociationResult
 void MoverSpeed::countMisses(const AssociationContext& ctx, const DjnnPaper& paper,
                              const LocalScan& scan, int admit_evidence) {
   if (!(p_.mover_left_odds > 0.0) || scan.held) return;
-  const EkfSlam& ekf = ctx.ekf();
-  const std::vector<LandmarkId>& ids = ekf.landmarkIds();
-  for (int j : scan.cand) {
-    const auto it = admitted_.find(ids[j]);
+  for (int k = 0; k < scan.candidates(); ++k) {
+    const auto it = admitted_.find(ctx.landmarkId(scan.cand[k]));
     if (it == admitted_.end() || it->second.pairings >= admit_evidence) continue;
     Admitted& a = it->second;
+    // The looks the evidence counter counts a miss for (a hidden landmark was out of view).
     if (a.last_paired == scans_) {
       a.misses = 0;
-    } else if (paper.inPenaltyRegion(DjnnPaper::inSensorFrame(scan, ekf.landmark(j)))) {
+    } else if (paper.looksAt(ctx, scan, k)) {
       ++a.misses;
     }
   }

@@ -174,6 +174,12 @@ class DjnnPaper {
   bool inPenaltyRegion(const Eigen::Vector2d& p_sensor) const {
     return inRegion(p_sensor, penalty_radial_, penalty_lateral_);
   }
+  /// Whether the scan looked at candidate slot k where the evidence counter counts a miss: the
+  /// scan not held, the landmark in the penalty region and not hidden (OccludedMisses).
+  bool looksAt(const AssociationContext& ctx, const LocalScan& scan, int k) const {
+    return !scan.held && !scan.isHidden(k) &&
+           inPenaltyRegion(inSensorFrame(scan, ctx.ekf().landmark(scan.cand[k])));
+  }
   /// A point (map frame) in the frame of the scan's sensor.
   static Eigen::Vector2d inSensorFrame(const LocalScan& scan, const Eigen::Vector2d& p);
   /// Observation `obs` as a sighting from `pose` (s->pos, cov_obs, heading_lever) and the

@@ -42,6 +42,7 @@ add_library(ekf_slam_core
   src/core/association/djnn/djnn_paper.cpp
   src/core/association/djnn/ambiguity_gate.cpp
   src/core/association/djnn/mover_speed.cpp
+  src/core/association/djnn/static_failure_rate.cpp
   src/core/association/djnn/static_test.cpp
   src/core/association/djnn/bias_test.cpp
   src/core/association/djnn/follow_pose.cpp

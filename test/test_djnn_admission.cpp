@@ -3,6 +3,8 @@
 // paper's counter, but the static test still needs admit_evidence sightings of one static point),
 // and established landmarks that the bias test no longer removes when a mover passes by.
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <map>
 #include <random>
 #include <string>
@@ -13,6 +15,7 @@
 #include "association_fixtures.h"
 #include "djnn_fixtures.h"
 #include "ekf_slam/core/association/djnn/djnn.h"
+#include "ekf_slam/core/association/djnn/static_failure_rate.h"
 #include "ekf_slam/core/common/angles.h"
 
 namespace ekf_slam {
@@ -336,7 +339,7 @@ class PlaceWatch {
     DjnnPaperParams pp;
     pp.sensor.detection_probability = 0.2;
     paper_.configure(pp);
-    test_.configure(7, true);
+    test_.configure(7, true, 60.0);
     m_.read(ParameterReader(
         MapParameterSource({{"learn_mover_speed", "true"}, {"mover_left_odds", odds}})));
     m_.configure(60.0);
@@ -424,6 +427,73 @@ TEST(DJNNAdmission, RemovedLandmarkIsAMoverOnlyOnceItsPlaceShowsEmpty) {
 
   EXPECT_EQ(DJNN().params().mover_speed.mover_left_odds, 100.0);
   EXPECT_THROW(makeDjnn({{"mover_left_odds", "-1"}}), ParameterError);
+}
+
+// The static test's failure share (static_failure_rate.h): movers are ruled out once the one-sided
+// 99.9 % bound of the share is below the test's size, and the tests fade over the horizon.
+TEST(DJNNAdmission, StaticFailureRateRulesMoversOutOnlyWhenTheTestRarelyFails) {
+  StaticFailureRate rate;
+  rate.configure(0.1, 60.0);
+  double t = 0.0;
+  for (int k = 0; k < 86; ++k) rate.tested(false, t += 0.01);
+  EXPECT_FALSE(rate.moversRuledOut());  // 86 passes: the bound is still above 0.1
+  rate.tested(false, t += 0.01);
+  EXPECT_TRUE(rate.moversRuledOut());
+  // One failure in 50 tests, well below the size, over a long run: still ruled out.
+  for (int k = 0; k < 1000; ++k) rate.tested(k % 50 == 0, t += 0.01);
+  EXPECT_TRUE(rate.moversRuledOut());
+  EXPECT_NEAR(rate.share(), 0.02, 0.005);
+  // Movers arrive: one test in six fails.
+  for (int k = 0; k < 600; ++k) rate.tested(k % 6 == 0, t += 0.05);
+  EXPECT_FALSE(rate.moversRuledOut());
+  // They leave: after a few horizons the recent tests decide again.
+  for (int k = 0; k < 1000; ++k) rate.tested(false, t += 0.3);
+  EXPECT_TRUE(rate.moversRuledOut());
+  rate.reset();
+  EXPECT_FALSE(rate.moversRuledOut());
+  EXPECT_EQ(rate.tests(), 0.0);
+}
+
+// fewer_sightings_without_movers: at P_D 0.4 a hit scores 2 (1 - 0.2) = 1.6, so the paper's T
+// reaches admit_evidence 7 at the fifth sighting. A point that appears among static points seen in
+// every scan is admitted then; among slow movers (which keep failing the static test) it waits for
+// the seventh sighting, as it does with the rule off.
+TEST(DJNNAdmission, FewerSightingsOnlyWhereTheStaticTestShowsNoMovers) {
+  auto sightingAdmitted = [](bool movers, bool rule, std::uint64_t* restarts) {
+    Scene s;
+    s.pose_cov = assoc_test::poseCov(0.2, 0.2, 0.01);
+    s.R = assoc_test::diag2(0.01, deg2rad(0.1));
+    s.build();
+    DJNN d = makeDjnn({{"detection_probability", "0.4"},
+                       {"admit_evidence", "7"},
+                       {"static_test", "true"},
+                       {"missed_detection_profile", "false"},
+                       {"fewer_sightings_without_movers", rule ? "true" : "false"}});
+    for (int k = 0; k < 60; ++k) {
+      s.observations.clear();
+      s.truth.clear();
+      for (int i = 0; i < 4; ++i) s.observePoint({4.0 + 3.0 * i, 6.0});
+      if (movers) {
+        for (int j = 0; j < 6; ++j) {
+          s.observePoint(Eigen::Vector2d(5.0 + 2.0 * j, -4.0) +
+                         0.1 * Eigen::Vector2d(std::cos(k + j), std::sin(k + j)));
+        }
+      }
+      if (k >= 40) s.observePoint({10.0, 12.0});
+      const AssociationResult r = d.associate(s.context(0.2 * k));
+      if (k >= 40 && r.decision.back() == Decision::kNew) {
+        *restarts = d.stats().static_restarts;
+        return k - 39;
+      }
+    }
+    return -1;
+  };
+  std::uint64_t restarts = 0;
+  EXPECT_EQ(sightingAdmitted(false, true, &restarts), 5);
+  EXPECT_EQ(restarts, 0u);
+  EXPECT_EQ(sightingAdmitted(false, false, &restarts), 7);
+  EXPECT_EQ(sightingAdmitted(true, true, &restarts), 7);
+  EXPECT_GT(restarts, 20u);
 }
 
 }  // namespace test_djnn_admission

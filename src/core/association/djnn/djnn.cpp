@@ -139,7 +139,7 @@ void DJNN::configure(const ParameterSource& user) {
   paper_.configure(p_.paper);
   density_test_.configure(p_.paper.sensor);
   unmapped_.configure(density_test_.regionArea());
-  static_test_.configure(p_.paper.admit_evidence, mover_speed_.on());
+  static_test_.configure(p_.paper.admit_evidence, mover_speed_.on(), p_.paper.tentative_timeout);
   mover_speed_.configure(p_.paper.tentative_timeout);
   bias_test_.configure();
   reset();
@@ -160,7 +160,7 @@ void DJNN::missesDetected(AssociationResult* result) {
   bias_test_.setParams(p_.bias);
   remembered_.setParams(p_.remembered);
   confirmation_.setParams(p_.confirmation);
-  static_test_.configure(p_.paper.admit_evidence, mover_speed_.on());
+  static_test_.configure(p_.paper.admit_evidence, mover_speed_.on(), p_.paper.tentative_timeout);
   bias_test_.configure();
   result->notice = detection_.notice();
 }

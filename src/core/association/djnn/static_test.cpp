@@ -18,6 +18,18 @@ void StaticTest::read(const ParameterReader& r) {
   p_.admission_velocity_test = r.flag("admission_velocity_test", def.admission_velocity_test);
   p_.admission_velocity_probability =
       r.probability("admission_velocity_probability", def.admission_velocity_probability);
+  p_.fewer_sightings_without_movers =
+      r.flag("fewer_sightings_without_movers", def.fewer_sightings_without_movers);
+}
+
+int StaticTest::sightingsNeeded() const {
+  // A static point fails the test by chance in at most 1 - static_probability of its tests; a
+  // share below that leaves no room for movers, and then the count only holds landmarks back. A
+  // learned mover speed (a mover seen leaving) says movers are here whatever the share.
+  return p_.fewer_sightings_without_movers && learned_speed_ <= 0.0 &&
+                 failure_rate_.moversRuledOut()
+             ? 1
+             : admit_evidence_;
 }
 
 double StaticTest::minSpeed() const {
@@ -36,9 +48,10 @@ double StaticTest::baselineInformation(double v) const {
   return k * k;
 }
 
-void StaticTest::configure(int admit_evidence, bool learning) {
+void StaticTest::configure(int admit_evidence, bool learning, double horizon) {
   admit_evidence_ = admit_evidence;
   learning_ = learning;
+  failure_rate_.configure(1.0 - p_.static_probability, horizon);
   static_gate_ =
       Chi2Table(p_.static_probability, 2 * std::max({admit_evidence, 2, kMaxJointSightings}));
   velocity_gate_ = chi2Quantile(p_.static_probability, 2);
@@ -87,6 +100,7 @@ bool StaticTest::stillStatic(Tentative* t, const Eigen::Vector2d& z,
       }
     }
   }
+  failure_rate_.tested(moving, stamp);
   return !moving;
 }
 
@@ -225,10 +239,11 @@ void StaticTest::started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Ma
 bool StaticTest::admits(const Tentative& t) const {
   // With P_D < 1 a hit is worth more than 1, so T reaches the threshold after fewer sightings
   // than at P_D = 1; the static test still needs the paper's admit_evidence sightings of one
-  // static point (and the time they span) to tell a slow mover from a landmark. At P_D = 1,
-  // T >= admit_evidence already implies as many sightings since the last restart.
+  // static point (and the time they span) to tell a slow mover from a landmark, unless its own
+  // failures rule movers out (sightingsNeeded). At P_D = 1, T >= admit_evidence already implies
+  // as many sightings since the last restart.
   if (!p_.static_test) return true;
-  if (t.sightings < admit_evidence_) return false;
+  if (t.sightings < sightingsNeeded()) return false;
   const double v_min = minSpeed();
   if (v_min <= 0.0) return true;
   Eigen::Matrix2d J;

@@ -7,7 +7,8 @@
 // speed would have shown its motion), a learned speed (without static_min_speed: the same test
 // and wait at the speed MoverSpeed learned, mover_speed.h), admission_velocity_test (at admission,
 // the sightings' joint constant-velocity fit must show no velocity at
-// admission_velocity_probability).
+// admission_velocity_probability), fewer_sightings_without_movers (while the test's own failures
+// show no mover, static_failure_rate.h, admission waits for the paper's evidence alone).
 #pragma once
 
 #include <vector>
@@ -15,6 +16,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/association/association_context.h"
+#include "ekf_slam/core/association/djnn/static_failure_rate.h"
 #include "ekf_slam/core/association/djnn/tentative_set.h"
 #include "ekf_slam/core/common/chi2.h"
 #include "ekf_slam/core/common/parameters.h"
@@ -33,16 +35,23 @@ class StaticTest {
     /// Its gate, chi2(2, p): a refusal only delays the admission (the sightings are kept), so
     /// the gate is set for power against movers rather than for few refusals (docs/djnn.md).
     double admission_velocity_probability = 0.7;
+    /// While the share of sightings failing this test shows no mover (StaticFailureRate), admit
+    /// on the paper's evidence alone instead of after admit_evidence sightings (docs/djnn.md).
+    bool fewer_sightings_without_movers = true;
   };
   void read(const ParameterReader& r);
   /// admit_evidence: the sightings admission waits for (and the gate table's size); learning:
-  /// a speed will be learned (MoverSpeed), so every feature's track is kept from its start.
-  void configure(int admit_evidence, bool learning);
+  /// a speed will be learned (MoverSpeed), so every feature's track is kept from its start;
+  /// horizon [s]: how long the test's failures are remembered (tentative_timeout).
+  void configure(int admit_evidence, bool learning, double horizon);
   const Params& params() const { return p_; }
   /// Parameters read elsewhere (DJNN switching to the missed-detection profile mid-run).
   void setParams(const Params& p) { p_ = p; }
-  /// Forgets the learned speed (a new run).
-  void reset() { learned_speed_ = 0.0; }
+  /// Forgets the learned speed and the failures (a new run).
+  void reset() {
+    learned_speed_ = 0.0;
+    failure_rate_.reset();
+  }
   /// The speed MoverSpeed learned (0: none yet), used while static_min_speed is 0.
   void useLearnedSpeed(double speed) { learned_speed_ = speed; }
   /// The slowest speed kept out of the map in use: static_min_speed, else the learned one, else
@@ -79,6 +88,10 @@ class StaticTest {
                double stamp) const;
   /// Enough static sightings, over a long enough time, for admission.
   bool admits(const Tentative& t) const;
+  /// The static sightings admission waits for now: admit_evidence, or 1 (the paper's evidence
+  /// decides) while fewer_sightings_without_movers and the failures rule movers out.
+  int sightingsNeeded() const;
+  const StaticFailureRate& failureRate() const { return failure_rate_; }
   /// admission_velocity_test: t's sightings with pose clones and observation `obs`, fitted with a
   /// constant velocity (jointTrack), show a velocity beyond chi2(2,
   /// admission_velocity_probability). False when off or when the fit is not available (fewer than
@@ -123,6 +136,7 @@ class StaticTest {
   double baseline_information_ = 0.0;  ///< least velocity information for admission [s^2/m^2]
   double learned_speed_ = 0.0;         ///< MoverSpeed's, 0 until it learned one
   double heading_var_ = 0.0;           ///< of this scan (static_heading)
+  StaticFailureRate failure_rate_;
 };
 
 }  // namespace ekf_slam

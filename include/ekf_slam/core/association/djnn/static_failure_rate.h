@@ -8,7 +8,7 @@
 // among the features, and admission waits for the paper's evidence alone. The share is looked at
 // after every test of a long run, so its level is 0.1 %, not the package's usual 1 %: at 1 %, a
 // sensor that sees few features (`arena`: about 60 tests a minute) ruled movers out for minutes
-// at a time while its robots stood still, and let them in (docs/djnn.md).
+// at a time while its robots seldom failed the test, and let them in (docs/djnn.md).
 #pragma once
 
 namespace ekf_slam {
@@ -31,7 +31,7 @@ class StaticFailureRate {
  private:
   double size_ = 0.1;
   double horizon_ = 60.0;
-  double z_ = 0.0;  ///< the standard normal's 0.99 quantile
+  double z_ = 0.0;  ///< the standard normal's 0.999 quantile
   double tests_ = 0.0;
   double failures_ = 0.0;
   double last_stamp_ = 0.0;

@@ -91,7 +91,6 @@ class StaticTest {
   /// The static sightings admission waits for now: admit_evidence, or 1 (the paper's evidence
   /// decides) while fewer_sightings_without_movers and the failures rule movers out.
   int sightingsNeeded() const;
-  const StaticFailureRate& failureRate() const { return failure_rate_; }
   /// admission_velocity_test: t's sightings with pose clones and observation `obs`, fitted with a
   /// constant velocity (jointTrack), show a velocity beyond chi2(2,
   /// admission_velocity_probability). False when off or when the fit is not available (fewer than

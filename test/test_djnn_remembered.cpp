@@ -4,6 +4,7 @@
 // observation "not in the map", and the likelihood prefers the shift. The remembered feature (its
 // offset from a landmark paired at the time) explains that observation instead.
 #include <algorithm>
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -181,6 +182,42 @@ TEST(DJNNRemembered, HeldSightingsJoinTheirLandmarkOnceDecided) {
       EXPECT_TRUE(d.tentativeFeatures().empty());
     }
   }
+}
+
+// A tracked pairing's rival that is no map landmark (docs/djnn.md, "Tracked pairings are not
+// held"): back in a closure scan, the marker paired a moment ago could also be the remembered
+// feature beside it, a pose shift away. That rival leaves the observation out of the map, as
+// "not in the map" does: it decides no closure, so the tracked pairing is decided, not held.
+TEST(DJNNRemembered, ATrackedPairingWhoseRivalIsARememberedFeatureIsDecided) {
+  DJNN d = makeJoint(true);
+  firstPass(&d);  // marker 2 paired at 1 s; the hole's marker remembered beside it
+  ASSERT_EQ(d.stats().remembered, 1u);
+  // The same landmarks but for marker 2 moved away, out of view, but one: an old landmark known
+  // only to a metre, which makes the scan a closure scan without deciding the pose.
+  Scene s;
+  s.pose_cov = assoc_test::poseCov(0.5, 0.02, 0.002);
+  s.R = assoc_test::diag2(0.03 * 0.03, deg2rad(1) * deg2rad(1));
+  int old = -1;
+  for (int k = 0; k < 10; ++k) {
+    if (k == kHole) continue;
+    if (k == 2) {
+      s.addLandmark(marker(2), assoc_test::diag2(1e-6, 1e-6));
+    } else if (k == 5) {
+      old = s.addLandmark({5.2, 3.0}, assoc_test::diag2(1.0, 1.0));
+    } else {
+      s.addLandmark({marker(k).x(), 40.0}, assoc_test::diag2(1e-6, 1e-6));
+    }
+  }
+  s.build();
+  s.observeLandmark(2);  // marker 2; the remembered one 0.8 m beside it
+  s.observeLandmark(old);
+  const std::uint64_t joint_scans = d.stats().joint_scans;
+  const AssociationResult r = d.associate(s.context(25.0));  // marker 2 paired 24 s ago
+  EXPECT_EQ(d.stats().joint_scans, joint_scans + 1);         // `old` makes it a closure scan
+  EXPECT_EQ(r.decision[0], Decision::kPaired);
+  EXPECT_EQ(r.landmark[0], Scene::idOf(2));
+  EXPECT_NE(r.decision[1], Decision::kPaired);  // the closure itself is not decided
+  EXPECT_EQ(d.stats().remembered_admitted, 0u);
 }
 
 TEST(DJNNRemembered, OffByDefaultAndValidated) {

@@ -198,10 +198,12 @@ bool JointDecision::decide(const AssociationContext& ctx, const Parts& parts, Lo
   for (std::size_t k = 0; k < problem.obs.size(); ++k) {
     const int i = problem.obs[k];
     // A hold guards against a wrong closure. An observation whose best pairs a landmark
-    // tracked within loop_closure_age, and whose only rival is "not in the map", decides no
-    // closure: it is paired as tracking would pair it (held, the filter would lose it).
+    // tracked within loop_closure_age, and whose only rival leaves it out of the map ("not in
+    // the map", or a remembered or live feature, which would start a landmark of its own),
+    // decides no closure: it is paired as tracking would pair it (held, the filter would lose
+    // it).
     const bool tracked = d.best[k] >= 0 && recentlyPaired(ctx.landmarkId(d.best[k]), scan->stamp) &&
-                         !d.alternative[k].empty() && d.alternative[k][k] == -1;
+                         !d.alternative[k].empty() && d.alternative[k][k] < 0;
     const bool close = d.alternative_cost[k] < d.best_cost + margin;
     if (!d.complete || unconfirmed || (close && !tracked)) {
       held = true;

@@ -6,9 +6,9 @@
 // densities (landmark_density + clutter_density), decides each observation only when every
 // hypothesis deciding it otherwise is joint_margin less likely; the rest are held (neither
 // paired nor a new landmark), but for a pairing with a landmark tracked within loop_closure_age
-// whose only rival is "not in the map" (it decides no closure). With it on, the density test
-// runs only on the other scans. Works with the remembered features, landmark spacing and held
-// confirmations.
+// whose only rival leaves it out of the map ("not in the map", a remembered or a live feature):
+// it decides no closure. With it on, the density test runs only on the other scans. Works with
+// the remembered features, landmark spacing and held confirmations.
 #pragma once
 
 #include <cstdint>

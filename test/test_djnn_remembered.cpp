@@ -192,8 +192,8 @@ TEST(DJNNRemembered, ATrackedPairingWhoseRivalIsARememberedFeatureIsDecided) {
   DJNN d = makeJoint(true);
   firstPass(&d);  // marker 2 paired at 1 s; the hole's marker remembered beside it
   ASSERT_EQ(d.stats().remembered, 1u);
-  // The same landmarks but for marker 2 moved away, out of view, but one: an old landmark known
-  // only to a metre, which makes the scan a closure scan without deciding the pose.
+  // The same landmark ids: marker 2 where it was, one old landmark known only to a metre (it
+  // makes the scan a closure scan without pinning the pose), the others out of view.
   Scene s;
   s.pose_cov = assoc_test::poseCov(0.5, 0.02, 0.002);
   s.R = assoc_test::diag2(0.03 * 0.03, deg2rad(1) * deg2rad(1));

@@ -310,5 +310,33 @@ TEST(DelayedSightings, AdmissionVelocityGateIsSetForPowerAgainstMovers) {
   EXPECT_EQ(admittedAt(djnnDecisions({}, post)), 6);
 }
 
+// The walker above among 20 static posts: their sightings pass the static test by the hundred,
+// which rules movers out (StaticFailureRate), and with waive_velocity_test_without_movers the
+// walker is then admitted at its seventh sighting as the scatter test alone would. Alone, too few
+// tests have been seen to rule movers out, and the velocity test still keeps it out.
+TEST(DelayedSightings, AdmissionVelocityTestWaivedOnlyWhereNoMoverIsSeen) {
+  const auto decisions = [](bool waive, bool posts) {
+    SlamPipeline pipeline(
+        linearConfig(),
+        djnnAllAround({{"waive_velocity_test_without_movers", waive ? "true" : "false"}}));
+    return firstDecisions(&pipeline, [&](int k) {
+      std::vector<Eigen::Vector2d> where = {Eigen::Vector2d(6.0, 2.0 + 0.12 * k)};
+      for (int i = 0; posts && i < 20; ++i) where.emplace_back(-10.0 + 1.5 * i, -8.0);
+      std::vector<Observation> scan;
+      for (const Eigen::Vector2d& w : where) {
+        Observation z;
+        z.kind = MeasurementKind::kCartesian;
+        z.z = w - Eigen::Vector2d(1.0 * k, 0.0);
+        z.R = Eigen::Vector2d(0.02, 0.05).asDiagonal();
+        scan.push_back(z);
+      }
+      return scan;
+    });
+  };
+  EXPECT_EQ(admittedAt(decisions(false, true)), -1);
+  EXPECT_EQ(admittedAt(decisions(true, true)), 6);
+  EXPECT_EQ(admittedAt(decisions(true, false)), -1);
+}
+
 }  // namespace test_delayed_sightings
 }  // namespace ekf_slam

@@ -308,7 +308,9 @@ TEST(DJNNJoint, NoLandmarkIsAdmittedWithinTheSpacingOfAnother) {
 
 // The pose is off by one spacing: NN pairs the row one marker along. A marker off the row (the
 // corridor's corner) is seen too; the shifted hypothesis must leave it out of the map (or pair it
-// 0.8 m off given the row), so the true assignment is far likelier and is taken.
+// 0.8 m off given the row), so the true assignment is far likelier and is taken: at once by a
+// per-scan margin, and on the next scan's evidence by the closure's sum (one scan's lead of 8.5
+// is less than closure_margin).
 TEST(DJNNJoint, ShiftedRowLosesToAMarkerThatBreaksThePeriod) {
   for (const bool joint : {false, true}) {
     Scene s;
@@ -320,17 +322,26 @@ TEST(DJNNJoint, ShiftedRowLosesToAMarkerThatBreaksThePeriod) {
     DJNN d = makeDjnn(joint ? kJoint : std::map<std::string, std::string>{});
     for (int k = 1; k < 4; ++k) s.observeLandmark(row[k]);
     s.observeLandmark(corner);
+    const auto right = [&](const AssociationResult& r) {
+      int n = 0;
+      for (int i = 0; i < 4; ++i) {
+        n += r.decision[i] == Decision::kPaired && r.landmark[i] == Scene::idOf(s.truth[i]);
+      }
+      return n;
+    };
     const AssociationResult r = d.associate(s.context(0));
-    int right = 0;
-    for (int i = 0; i < 4; ++i) {
-      right += r.decision[i] == Decision::kPaired && r.landmark[i] == Scene::idOf(s.truth[i]);
-    }
     if (joint) {
-      EXPECT_EQ(right, 4);
-      EXPECT_EQ(d.stats().joint_scans, 1u);
-      EXPECT_EQ(d.stats().joint_held, 0u);
+      EXPECT_EQ(right(r), 0);  // held: one scan's evidence
+      EXPECT_EQ(d.stats().joint_held, 4u);
+      EXPECT_EQ(right(d.associate(s.context(0.2))), 4);
+      EXPECT_EQ(d.stats().joint_scans, 2u);
+      EXPECT_EQ(d.stats().joint_held, 4u);
+      DJNN per_scan = makeDjnn(
+          {{"loop_closure_age", "30"}, {"landmark_density", "0.3"}, {"closure_margin", "0"}});
+      EXPECT_EQ(right(per_scan.associate(s.context(0))), 4);
+      EXPECT_EQ(per_scan.stats().joint_held, 0u);
     } else {
-      EXPECT_LT(right, 4);  // the scene is one NN gets wrong
+      EXPECT_LT(right(r), 4);  // the scene is one NN gets wrong
     }
   }
 }
@@ -410,6 +421,63 @@ TEST(DJNNJoint, ATrackedLandmarkIsPairedInAClosureScan) {
   EXPECT_EQ(d.stats().joint_held, 1u);
 }
 
+// A closure along a row of markers laid by hand (a few centimetres off the period), the pose
+// 0.3 m off along it with 1 m of uncertainty. Each scan from the true pose favours the truth by
+// less than joint_margin: held. Then a clutter return one spacing past the row's end makes the
+// row one marker along more likely by more than joint_margin. Decided on that scan alone the
+// loop closes wrongly; on the evidence of all its held scans (closure_margin) the truth still
+// leads and the scan is held. Once a marker off the row (the corridor's corner) is in view, the
+// truth is decided.
+TEST(DJNNJoint, AClosureIsDecidedOnTheEvidenceOfItsHeldScans) {
+  for (const bool summed : {false, true}) {
+    Scene s;
+    s.pose_cov = assoc_test::poseCov(1.0, 0.05, 0.005);
+    s.R = assoc_test::diag2(0.03, deg2rad(1));
+    const double laid[] = {0.0, 0.015, -0.012, 0.016, -0.01, 0.0};
+    std::vector<int> row;
+    for (int k = 0; k < 6; ++k) {
+      row.push_back(s.addLandmark({2.0 + 0.8 * k + laid[k], 0.5}, assoc_test::diag2(0.01, 0.01)));
+    }
+    const int corner = s.addLandmark({3.6, -1.0}, assoc_test::diag2(0.01, 0.01));
+    s.true_pose = Eigen::Vector3d(0.3, 0, 0);
+    s.build();
+    std::map<std::string, std::string> params = kJoint;
+    params["closure_margin"] = summed ? "10" : "0";
+    DJNN d = makeDjnn(params);
+    const auto scan = [&](bool noisy, double stamp, bool with_corner = false) {
+      s.observations.clear();
+      s.truth.clear();
+      for (int k = 1; k < 4; ++k) s.observeLandmark(row[k]);
+      if (with_corner) s.observeLandmark(corner);
+      // A return one spacing past the row's end: out of the map if the pose is right, the
+      // row's last marker if it is one spacing off.
+      if (noisy) s.observePoint(s.true_landmarks[row[5]] + Eigen::Vector2d(0.8, 0.0));
+      const AssociationResult r = d.associate(s.context(stamp));
+      int truth = 0;
+      int wrong = 0;
+      for (int i = 0; i < 3; ++i) {
+        if (r.decision[i] != Decision::kPaired) continue;
+        (r.landmark[i] == Scene::idOf(row[i + 1]) ? truth : wrong) += 1;
+      }
+      return std::make_pair(truth, wrong);
+    };
+    double t = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      const auto r = scan(false, t += 0.2);
+      EXPECT_EQ(r.first + r.second, 0) << "a scan from the true pose was decided alone";
+    }
+    const auto bad = scan(true, t += 0.2);
+    if (!summed) {
+      EXPECT_EQ(bad.second, 3);  // the scene is one a per-scan margin gets wrong
+      continue;
+    }
+    EXPECT_EQ(bad.first + bad.second, 0);
+    const auto r = scan(false, t += 0.2, true);
+    EXPECT_EQ(r.first, 3) << "the truth was not decided";
+    EXPECT_EQ(r.second, 0);
+  }
+}
+
 TEST(DJNNJoint, OnByDefaultAndValidated) {
   DJNN d;
   EXPECT_EQ(d.params().joint.loop_closure_age, 60.0);
@@ -417,6 +485,7 @@ TEST(DJNNJoint, OnByDefaultAndValidated) {
   EXPECT_THROW(makeDjnn({{"loop_closure_age", "-1"}}), ParameterError);
   EXPECT_THROW(makeDjnn({{"loop_closure_age", "30"}}), ParameterError);  // no density
   EXPECT_THROW(makeDjnn({{"joint_margin", "-1"}}), ParameterError);
+  EXPECT_THROW(makeDjnn({{"closure_margin", "-1"}}), ParameterError);
   EXPECT_EQ(d.params().remembered.held_birth_cost, 0.0);
   EXPECT_THROW(makeDjnn({{"held_birth_cost", "-1"}}), ParameterError);
   EXPECT_EQ(d.params().spacing.landmark_spacing, 0.0);

@@ -12,6 +12,7 @@ void JointDecision::read(const ParameterReader& r, bool unmapped_density, bool a
   const Params def;
   p_.loop_closure_age = r.nonNegative("loop_closure_age", def.loop_closure_age);
   p_.joint_margin = r.nonNegative("joint_margin", def.joint_margin);
+  evidence_.read(r);
   if (p_.loop_closure_age > 0.0 && !unmapped_density) {
     if (age_set) {
       r.fail("loop_closure_age",
@@ -23,6 +24,7 @@ void JointDecision::read(const ParameterReader& r, bool unmapped_density, bool a
 }
 
 void JointDecision::reset() {
+  evidence_.clear();
   last_paired_.clear();
   held_streak_ = 0;
 }
@@ -44,6 +46,7 @@ void JointDecision::endHeldStreak(HeldConfirmation* confirmation, DjnnStats* sta
   stats->held_streak_scans += held_streak_;
   held_streak_ = 0;
   confirmation->clear();
+  evidence_.clear();
 }
 
 namespace {
@@ -185,12 +188,17 @@ bool JointDecision::decide(const AssociationContext& ctx, const Parts& parts, Lo
   if (!any_extra) problem.extra.clear();
   ++stats->joint_scans;
   const double margin = p_.joint_margin;
-  const JointMlDecision d = jointMaximumLikelihood(ectx, problem, margin);
+  const double search_margin = evidence_.searchMargin(margin);
+  const JointMlDecision d = jointMaximumLikelihood(ectx, problem, search_margin);
   // After held scans, a lead that did not lead them is one scan's noise: held again.
   HeldConfirmation::Lead lead;
   if (parts.confirmation.on()) lead = parts.confirmation.leadOf(ctx, problem, d);
   const bool unconfirmed =
       !parts.confirmation.empty() && !parts.confirmation.repeats(lead, parts.paper.gate());
+  // The closure's evidence summed over its held scans: held, on top of the scan's own margin,
+  // until its best's pose correction leads the sum.
+  const bool unresolved =
+      evidence_.on() && !evidence_.add(ctx, problem, d, is_old, parts.paper.gate(), search_margin);
   const bool remember = parts.remembered.on();
   scan->held = false;
   stats->joint_incomplete += !d.complete;
@@ -202,10 +210,11 @@ bool JointDecision::decide(const AssociationContext& ctx, const Parts& parts, Lo
     // the map", or a remembered or live feature, which would start a landmark of its own),
     // decides no closure: it is paired as tracking would pair it (held, the filter would lose
     // it).
-    const bool tracked = d.best[k] >= 0 && recentlyPaired(ctx.landmarkId(d.best[k]), scan->stamp) &&
-                         !d.alternative[k].empty() && d.alternative[k][k] < 0;
+    const bool local = d.best[k] >= 0 && recentlyPaired(ctx.landmarkId(d.best[k]), scan->stamp);
+    const bool tracked = local && !d.alternative[k].empty() && d.alternative[k][k] < 0;
     const bool close = d.alternative_cost[k] < d.best_cost + margin;
-    if (!d.complete || unconfirmed || (close && !tracked)) {
+    // An unresolved closure holds what would close it; a pairing of the local frame is kept.
+    if (!d.complete || unconfirmed || (unresolved && !local) || (close && !tracked)) {
       held = true;
       scan->assign[i] = -1;
       ++stats->joint_held;

@@ -20,16 +20,19 @@ void StaticTest::read(const ParameterReader& r) {
       r.probability("admission_velocity_probability", def.admission_velocity_probability);
   p_.fewer_sightings_without_movers =
       r.flag("fewer_sightings_without_movers", def.fewer_sightings_without_movers);
+  p_.waive_velocity_test_without_movers =
+      r.flag("waive_velocity_test_without_movers", def.waive_velocity_test_without_movers);
 }
 
 int StaticTest::sightingsNeeded() const {
   // A static point fails the test by chance in at most 1 - static_probability of its tests; a
   // share below that leaves no room for movers, and then the count only holds landmarks back. A
   // learned mover speed (a mover seen leaving) says movers are here whatever the share.
-  return p_.fewer_sightings_without_movers && learned_speed_ <= 0.0 &&
-                 failure_rate_.moversRuledOut()
-             ? 1
-             : admit_evidence_;
+  return p_.fewer_sightings_without_movers && noMoversSeen() ? 1 : admit_evidence_;
+}
+
+bool StaticTest::noMoversSeen() const {
+  return learned_speed_ <= 0.0 && failure_rate_.moversRuledOut();
 }
 
 double StaticTest::minSpeed() const {
@@ -258,6 +261,8 @@ bool StaticTest::admits(const Tentative& t) const {
 bool StaticTest::movingAtAdmission(const AssociationContext& ctx, const Tentative& t,
                                    int obs) const {
   if (!p_.static_test || !p_.admission_velocity_test) return false;
+  // Where nothing moves it only holds landmarks back (docs/djnn.md).
+  if (p_.waive_velocity_test_without_movers && noMoversSeen()) return false;
   // One static point (the scatter test, 2 (k - 1) dof) is a weak test against steady motion; a
   // mover that stood still or walked slowly through the admission window passes it. The
   // velocity of the constant-velocity fit (2 dof) is the strong one. Failing it only delays the

@@ -15,6 +15,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "ekf_slam/core/association/djnn/closure_evidence.h"
 #include "ekf_slam/core/association/djnn/djnn_paper.h"
 #include "ekf_slam/core/association/djnn/held_confirmation.h"
 #include "ekf_slam/core/association/djnn/landmark_spacing.h"
@@ -68,6 +69,7 @@ class JointDecision {
   void endHeldStreak(HeldConfirmation* confirmation, DjnnStats* stats);
 
   Params p_;
+  ClosureEvidence evidence_;
   std::unordered_map<LandmarkId, double> last_paired_;  ///< stamp
   std::uint64_t held_streak_ = 0;  ///< consecutive joint scans with something held
 };

@@ -8,7 +8,8 @@
 // and wait at the speed MoverSpeed learned, mover_speed.h), admission_velocity_test (at admission,
 // the sightings' joint constant-velocity fit must show no velocity at
 // admission_velocity_probability), fewer_sightings_without_movers (while the test's own failures
-// show no mover, static_failure_rate.h, admission waits for the paper's evidence alone).
+// show no mover, static_failure_rate.h, admission waits for the paper's evidence alone) and
+// waive_velocity_test_without_movers (nor is the admission velocity test asked for then).
 #pragma once
 
 #include <vector>
@@ -38,6 +39,8 @@ class StaticTest {
     /// While the share of sightings failing this test shows no mover (StaticFailureRate), admit
     /// on the paper's evidence alone instead of after admit_evidence sightings (docs/djnn.md).
     bool fewer_sightings_without_movers = true;
+    /// While it shows no mover, no admission velocity test either (docs/djnn.md).
+    bool waive_velocity_test_without_movers = false;
   };
   void read(const ParameterReader& r);
   /// admit_evidence: the sightings admission waits for (and the gate table's size); learning:
@@ -94,7 +97,8 @@ class StaticTest {
   /// admission_velocity_test: t's sightings with pose clones and observation `obs`, fitted with a
   /// constant velocity (jointTrack), show a velocity beyond chi2(2,
   /// admission_velocity_probability). False when off or when the fit is not available (fewer than
-  /// three such sightings, no clones).
+  /// three such sightings, no clones), and while waive_velocity_test_without_movers and the
+  /// failures rule movers out.
   bool movingAtAdmission(const AssociationContext& ctx, const Tentative& t, int obs) const;
   /// The slowest speed at which t's sightings would have shown motion (the inverse of the
   /// admission wait); infinity when its velocity is not determined.
@@ -108,6 +112,8 @@ class StaticTest {
                          double first_seen);
 
  private:
+  /// No mover learned and the failures' share rules movers out (StaticFailureRate).
+  bool noMoversSeen() const;
   /// The track's velocity information (position marginalised).
   static Eigen::Matrix2d velocityInformation(const Eigen::Matrix4d& track_info);
   /// The least eigenvalue of the symmetric 2 x 2 J (the information along the direction the

@@ -1,7 +1,6 @@
 #include "ekf_slam/core/association/djnn/closure_evidence.h"
 
 #include <algorithm>
-#include <cmath>
 
 #include <Eigen/LU>
 
@@ -30,7 +29,6 @@ std::vector<ClosureEvidence::Source> ClosureEvidence::sources(const AssociationC
     Eigen::Matrix2d G_obs;
     src[k].point = ctx.model().inverse(ctx.robotPose(), o.z, o.kind, &G_pose, &G_obs);
     src[k].cov = G_obs * o.R * G_obs.transpose();
-    src[k].null_cost = problem.null_costs.empty() ? problem.null_cost : problem.null_costs[k];
   }
   return src;
 }

@@ -48,7 +48,6 @@ class ClosureEvidence {
   struct Source {
     Eigen::Vector2d point;
     Eigen::Matrix2d cov;
-    double null_cost = 0.0;  ///< -2 ln of "not in the map" per m^2
   };
   /// The pose correction a hypothesis implies: the mean offset of its sources from the old
   /// landmarks it pairs them with; none when it pairs no old landmark.

@@ -52,6 +52,7 @@ add_library(ekf_slam_core
   src/core/association/djnn/landmark_spacing.cpp
   src/core/association/djnn/remembered_features.cpp
   src/core/association/djnn/closure_evidence.cpp
+  src/core/association/djnn/pose_correction.cpp
   src/core/association/djnn/held_confirmation.cpp
   src/core/association/djnn/occluded_misses.cpp
   src/core/association/djnn/beam_spacing_misses.cpp

@@ -2,8 +2,6 @@
 
 #include <algorithm>
 
-#include <Eigen/LU>
-
 namespace ekf_slam {
 
 namespace {
@@ -20,55 +18,14 @@ double ClosureEvidence::searchMargin(double joint_margin) const {
   return std::max(joint_margin, p_.closure_margin);
 }
 
-std::vector<ClosureEvidence::Source> ClosureEvidence::sources(const AssociationContext& ctx,
-                                                              const JointMlProblem& problem) const {
-  std::vector<Source> src(problem.obs.size());
-  for (std::size_t k = 0; k < problem.obs.size(); ++k) {
-    const Observation& o = ctx.observations()[problem.obs[k]];
-    Matrix23d G_pose;
-    Eigen::Matrix2d G_obs;
-    src[k].point = ctx.model().inverse(ctx.robotPose(), o.z, o.kind, &G_pose, &G_obs);
-    src[k].cov = G_obs * o.R * G_obs.transpose();
-  }
-  return src;
-}
-
-ClosureEvidence::Correction ClosureEvidence::correctionOf(
-    const AssociationContext& ctx, const JointMlProblem& problem, const std::vector<Source>& src,
-    const std::vector<int>& hypothesis, const std::function<bool(int)>& old) const {
-  Correction c;
-  int n = 0;
-  for (std::size_t k = 0; k < problem.obs.size(); ++k) {
-    const int j = hypothesis[k];
-    if (j < 0 || !old(j)) continue;  // no landmark, or one the local frame already holds
-    c.offset += src[k].point - ctx.ekf().landmark(j);
-    c.cov += src[k].cov + ctx.ekf().landmarkCovariance(j);
-    ++n;
-  }
-  c.paired = n > 0;
-  if (n > 0) {
-    c.offset /= n;
-    c.cov /= static_cast<double>(n) * n;
-  }
-  return c;
-}
-
-bool ClosureEvidence::agree(const Correction& a, const Correction& b, double gate) {
-  if (a.paired != b.paired) return false;
-  if (!a.paired) return true;
-  const Eigen::Vector2d e = a.offset - b.offset;
-  return e.dot((a.cov + b.cov).inverse() * e) <= gate;
-}
-
 bool ClosureEvidence::add(const AssociationContext& ctx, const JointMlProblem& problem,
-                          const JointMlDecision& d, const std::function<bool(int)>& old,
-                          double gate, double search_margin) {
+                          const std::vector<CorrectionSource>& sources, const JointMlDecision& d,
+                          const std::function<bool(int)>& old, double gate, double search_margin) {
   if (!d.complete) return false;
-  const std::vector<Source> src = sources(ctx, problem);
   // The scan's hypotheses, each with its cost above the best: its best and, per observation, the
   // best that decides that observation otherwise.
-  std::vector<std::pair<Correction, double>> hypotheses;
-  hypotheses.emplace_back(correctionOf(ctx, problem, src, d.best, old), 0.0);
+  std::vector<std::pair<PoseCorrection, double>> hypotheses;
+  hypotheses.emplace_back(poseCorrection(ctx, problem, sources, d.best, old), 0.0);
   const bool closes = hypotheses.front().first.paired;
   // A hypothesis the scan did not report costs at least the least of those it did (it differs
   // from the best somewhere), and at least the search's reach.
@@ -77,18 +34,18 @@ bool ClosureEvidence::add(const AssociationContext& ctx, const JointMlProblem& p
     if (d.alternative[k].empty()) continue;
     const double cost = d.alternative_cost[k] - d.best_cost;
     unreported = std::min(unreported, cost);
-    hypotheses.emplace_back(correctionOf(ctx, problem, src, d.alternative[k], old), cost);
+    hypotheses.emplace_back(poseCorrection(ctx, problem, sources, d.alternative[k], old), cost);
   }
   std::vector<double> cost(entries_.size(), unreported);
   int leader = -1;
   for (std::size_t h = 0; h < hypotheses.size(); ++h) {
     // Leaving the old landmarks out of the map is no correction: the scan's own margin weighs
     // it (a duplicate, not a wrong closure).
-    const Correction& c = hypotheses[h].first;
+    const PoseCorrection& c = hypotheses[h].first;
     if (!c.paired) continue;
     int match = -1;
     for (std::size_t e = 0; e < entries_.size() && match < 0; ++e) {
-      if (agree(entries_[e].correction, c, gate)) match = static_cast<int>(e);
+      if (correctionsAgree(entries_[e].correction, c, gate)) match = static_cast<int>(e);
     }
     if (match < 0) {
       if (entries_.size() >= kMaxEntries) continue;

@@ -190,15 +190,19 @@ bool JointDecision::decide(const AssociationContext& ctx, const Parts& parts, Lo
   const double margin = p_.joint_margin;
   const double search_margin = evidence_.searchMargin(margin);
   const JointMlDecision d = jointMaximumLikelihood(ectx, problem, search_margin);
+  // Both compare the scan's hypotheses by the pose corrections they imply (pose_correction.h).
+  std::vector<CorrectionSource> sources;
+  if (d.complete && (parts.confirmation.on() || evidence_.on()))
+    sources = correctionSources(ctx, problem);
   // After held scans, a lead that did not lead them is one scan's noise: held again.
   HeldConfirmation::Lead lead;
-  if (parts.confirmation.on()) lead = parts.confirmation.leadOf(ctx, problem, d);
+  if (parts.confirmation.on()) lead = parts.confirmation.leadOf(ctx, problem, sources, d);
   const bool unconfirmed =
       !parts.confirmation.empty() && !parts.confirmation.repeats(lead, parts.paper.gate());
   // The closure's evidence summed over its held scans: held, on top of the scan's own margin,
   // until its best's pose correction leads the sum.
-  const bool unresolved =
-      evidence_.on() && !evidence_.add(ctx, problem, d, is_old, parts.paper.gate(), search_margin);
+  const bool unresolved = evidence_.on() && !evidence_.add(ctx, problem, sources, d, is_old,
+                                                           parts.paper.gate(), search_margin);
   const bool remember = parts.remembered.on();
   scan->held = false;
   stats->joint_incomplete += !d.complete;

@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 
 #include "ekf_slam/core/association/association_context.h"
+#include "ekf_slam/core/association/djnn/pose_correction.h"
 #include "ekf_slam/core/association/joint_ml.h"
 #include "ekf_slam/core/common/parameters.h"
 
@@ -35,36 +36,21 @@ class ClosureEvidence {
     unseen_ = 0.0;
   }
 
-  /// Adds one closure scan. `old(j)`: landmark state index j was last paired before the loop
-  /// closure age (a pairing with it is part of the correction). `gate`: chi2(2) of two
+  /// Adds one closure scan (`sources`: its observations', correctionSources). `old(j)`:
+  /// landmark state index j was last paired before the loop closure age (a pairing with it is
+  /// part of the correction: the pose correction against the old map). `gate`: chi2(2) of two
   /// corrections that agree. `search_margin`: how far above its best the decision searched the
   /// alternatives. True when the scan's joint best implies the correction that leads every other
   /// by closure_margin, or closes nothing.
-  bool add(const AssociationContext& ctx, const JointMlProblem& problem, const JointMlDecision& d,
+  bool add(const AssociationContext& ctx, const JointMlProblem& problem,
+           const std::vector<CorrectionSource>& sources, const JointMlDecision& d,
            const std::function<bool(int)>& old, double gate, double search_margin);
 
  private:
-  /// An observation's source in the world at the pose estimate, and its noise there.
-  struct Source {
-    Eigen::Vector2d point;
-    Eigen::Matrix2d cov;
-  };
-  /// The pose correction a hypothesis implies: the mean offset of its sources from the old
-  /// landmarks it pairs them with; none when it pairs no old landmark.
-  struct Correction {
-    bool paired = false;
-    Eigen::Vector2d offset = Eigen::Vector2d::Zero();
-    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();  ///< the pose's own uncertainty left out
-  };
   struct Entry {
-    Correction correction;
+    PoseCorrection correction;
     double score = 0.0;  ///< summed cost over the closure's scans above each scan's best
   };
-  std::vector<Source> sources(const AssociationContext& ctx, const JointMlProblem& problem) const;
-  Correction correctionOf(const AssociationContext& ctx, const JointMlProblem& problem,
-                          const std::vector<Source>& src, const std::vector<int>& hypothesis,
-                          const std::function<bool(int)>& old) const;
-  static bool agree(const Correction& a, const Correction& b, double gate);
 
   Params p_;
   std::vector<Entry> entries_;

@@ -6,10 +6,12 @@
 #pragma once
 
 #include <deque>
+#include <vector>
 
 #include <Eigen/Core>
 
 #include "ekf_slam/core/association/association_context.h"
+#include "ekf_slam/core/association/djnn/pose_correction.h"
 #include "ekf_slam/core/association/joint_ml.h"
 #include "ekf_slam/core/common/parameters.h"
 
@@ -20,12 +22,10 @@ class HeldConfirmation {
   struct Params {
     int held_confirmations = 0;  ///< 0: off
   };
-  /// The pose correction a joint hypothesis implies.
+  /// The pose correction a scan's joint best implies, over every map landmark it pairs.
   struct Lead {
-    bool valid = false;   ///< a complete decision
-    bool paired = false;  ///< it pairs an observation with a map landmark
-    Eigen::Vector2d offset = Eigen::Vector2d::Zero();  ///< mean source - landmark, world frame
-    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();     ///< its covariance, the pose's excluded
+    bool valid = false;  ///< a complete decision
+    PoseCorrection correction;
   };
   void read(const ParameterReader& r);
   const Params& params() const { return p_; }
@@ -36,7 +36,7 @@ class HeldConfirmation {
   bool empty() const { return leads_.empty(); }
 
   Lead leadOf(const AssociationContext& ctx, const JointMlProblem& problem,
-              const JointMlDecision& d) const;
+              const std::vector<CorrectionSource>& sources, const JointMlDecision& d) const;
   /// True when `lead` agrees with every kept lead within chi2(2) = `gate`.
   bool repeats(const Lead& lead, double gate) const;
   /// Keeps the lead of a held scan (the last held_confirmations of them).

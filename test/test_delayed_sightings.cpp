@@ -338,5 +338,38 @@ TEST(DelayedSightings, AdmissionVelocityTestWaivedOnlyWhereNoMoverIsSeen) {
   EXPECT_EQ(admittedAt(decisions(true, false)), -1);
 }
 
+// A post among 100 others, its second sighting (k = 1) 0.72 m off across: inside the tentative
+// gate (chi2(2, 0.95) = 6.0 against about 5.2) but failing the static test (chi2(2, 0.9) = 4.6).
+// By then the others' sightings have passed that test 100 times, which rules movers out; with
+// chance_failures_without_movers the failure is taken for chance, the feature keeps its first
+// sighting and is admitted at its seventh. Off, or alone (movers not ruled out), it restarts at
+// the outlier and again at the next sighting (0.72 m back), and is admitted two scans later.
+TEST(DelayedSightings, StaticTestFailureIsChanceOnlyWhereNoMoverIsSeen) {
+  const auto decisions = [](bool chance, bool posts) {
+    SlamPipeline pipeline(
+        linearConfig(),
+        djnnAllAround({{"chance_failures_without_movers", chance ? "true" : "false"}}));
+    return firstDecisions(&pipeline, [&](int k) {
+      std::vector<Eigen::Vector2d> where = {Eigen::Vector2d(6.0, k == 1 ? 2.72 : 2.0)};
+      for (int i = 0; posts && i < 100; ++i)
+        where.emplace_back(-10.0 + 1.5 * (i % 10), -8.0 - 1.5 * (i / 10));
+      std::vector<Observation> scan;
+      for (const Eigen::Vector2d& w : where) {
+        Observation z;
+        z.kind = MeasurementKind::kCartesian;
+        z.z = w - Eigen::Vector2d(1.0 * k, 0.0);
+        z.R = Eigen::Vector2d(0.02, 0.05).asDiagonal();
+        scan.push_back(z);
+      }
+      return scan;
+    });
+  };
+  EXPECT_EQ(admittedAt(decisions(true, true)), 6);
+  EXPECT_EQ(admittedAt(decisions(false, true)), 8);
+  // Alone the switch changes nothing.
+  EXPECT_EQ(decisions(true, false), decisions(false, false));
+  EXPECT_EQ(admittedAt(decisions(true, false)), 8);
+}
+
 }  // namespace test_delayed_sightings
 }  // namespace ekf_slam

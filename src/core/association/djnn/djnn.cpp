@@ -278,6 +278,7 @@ bool DJNN::stillStatic(const AssociationContext& ctx, int obs, Tentative* t, con
 void DJNN::started(Tentative* t, const Eigen::Vector2d& z, const Eigen::Matrix2d& C, double stamp) {
   static_test_.started(t, z, C, stamp);
   t->history.clear();
+  t->chance_failure = false;
 }
 
 void DJNN::dropping(const AssociationContext& ctx, int slot, bool stale) {

@@ -22,6 +22,8 @@ void StaticTest::read(const ParameterReader& r) {
       r.flag("fewer_sightings_without_movers", def.fewer_sightings_without_movers);
   p_.waive_velocity_test_without_movers =
       r.flag("waive_velocity_test_without_movers", def.waive_velocity_test_without_movers);
+  p_.chance_failures_without_movers =
+      r.flag("chance_failures_without_movers", def.chance_failures_without_movers);
 }
 
 int StaticTest::sightingsNeeded() const {
@@ -77,7 +79,8 @@ bool StaticTest::stillStatic(Tentative* t, const Eigen::Vector2d& z,
   // A heading error common to the sightings moves each by its lever times the error: they
   // differ by the change of lever (zero without static_heading).
   const Eigen::Vector2d dl = heading_lever - t->heading_lever;
-  t->residual += e.dot((t->cov + C + heading_var_ * dl * dl.transpose()).inverse() * e);
+  const double r2 = e.dot((t->cov + C + heading_var_ * dl * dl.transpose()).inverse() * e);
+  t->residual += r2;
   ++t->sightings;
   bool moving = t->residual > static_gate_(2 * (t->sightings - 1));
   double joint = 0.0;
@@ -103,12 +106,27 @@ bool StaticTest::stillStatic(Tentative* t, const Eigen::Vector2d& z,
       }
     }
   }
+  // Judged on the failures before this one: the monitor learns of it either way.
+  const bool chance = moving && p_.chance_failures_without_movers && noMoversSeen();
   failure_rate_.tested(moving, stamp);
+  if (chance) {
+    // A static point fails now and then (1 - static_probability of its tests); where nothing
+    // moves a restart only throws its sightings away. Fused, but kept out of the sums and the
+    // history the next tests weigh, so that one outlier does not fail them all.
+    t->residual -= r2;
+    --t->sightings;
+    t->chance_failure = true;
+    return true;
+  }
   return !moving;
 }
 
 void StaticTest::record(const AssociationContext& ctx, int obs, Tentative* t) const {
   if (!p_.static_test) return;
+  if (t->chance_failure) {  // left out of the joint test (stillStatic)
+    t->chance_failure = false;
+    return;
+  }
   const Observation& o = ctx.observations()[obs];
   if (static_cast<int>(t->history.size()) >= kMaxJointSightings)
     t->history.erase(t->history.begin());

@@ -8,8 +8,9 @@
 // and wait at the speed MoverSpeed learned, mover_speed.h), admission_velocity_test (at admission,
 // the sightings' joint constant-velocity fit must show no velocity at
 // admission_velocity_probability), fewer_sightings_without_movers (while the test's own failures
-// show no mover, static_failure_rate.h, admission waits for the paper's evidence alone) and
-// waive_velocity_test_without_movers (nor is the admission velocity test asked for then).
+// show no mover, static_failure_rate.h, admission waits for the paper's evidence alone),
+// waive_velocity_test_without_movers (nor is the admission velocity test asked for then) and
+// chance_failures_without_movers (nor does a failed test restart the feature then).
 #pragma once
 
 #include <vector>
@@ -41,6 +42,9 @@ class StaticTest {
     bool fewer_sightings_without_movers = true;
     /// While it shows no mover, no admission velocity test either (docs/djnn.md).
     bool waive_velocity_test_without_movers = false;
+    /// While it shows no mover, a sighting that fails the test is a static point's chance
+    /// failure: fused, but left out of the test's sums, instead of restarting the feature.
+    bool chance_failures_without_movers = false;
   };
   void read(const ParameterReader& r);
   /// admit_evidence: the sightings admission waits for (and the gate table's size); learning:

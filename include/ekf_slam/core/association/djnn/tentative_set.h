@@ -37,7 +37,7 @@ struct Tentative {
   bool alive = false;
   /// The run of sightings since the last (re)start: AssociationResult::feature.
   FeatureKey key = kNoFeature;
-  int sightings = 0;      ///< fused into position since the last (re)start (static test)
+  int sightings = 0;      ///< fused since the last (re)start and counted by the static test
   double residual = 0.0;  ///< sum of normalised residuals of the sightings (static test)
   /// Constant-velocity fit of the sightings since the last (re)start (static_min_speed):
   /// information matrix and vector of (position at first_seen, velocity).
@@ -53,6 +53,9 @@ struct Tentative {
   /// times the lever): a feature seen with no anchor is anchored at its timeout with it.
   Eigen::Matrix2d pose_cov = Eigen::Matrix2d::Zero();
   bool held_birth = false;  ///< started by an observation the joint decision held
+  /// The latest sighting failed the static test by chance (chance_failures_without_movers): it is
+  /// left out of the history.
+  bool chance_failure = false;
   /// Anchored polar form (second-order observations: far returns, coarse bearings): range and
   /// world bearing of the feature from the sensor position of the run's first sighting, and
   /// their covariance. position and cov are then its mean and covariance in the map frame.

@@ -265,18 +265,25 @@ TEST(DelayedSightings, DjnnAdmissionUsesEverySighting) {
   expectSameState(delayed.ekf(), now.ekf(), 1e-9);
 }
 
-// Scan k's decision for one point at `where(k)` (world frame, sighted without noise from the pose
-// (k, 0)) by DJNN in a pipeline, whose pose clones give the static test its joint fit.
+// Points at `where` (world frame) sighted without noise from the pose (k, 0) of scan k.
+std::vector<Observation> sightedAt(int k, const std::vector<Eigen::Vector2d>& where) {
+  std::vector<Observation> scan;
+  for (const Eigen::Vector2d& w : where) {
+    Observation z;
+    z.kind = MeasurementKind::kCartesian;
+    z.z = w - Eigen::Vector2d(1.0 * k, 0.0);
+    z.R = Eigen::Vector2d(0.02, 0.05).asDiagonal();
+    scan.push_back(z);
+  }
+  return scan;
+}
+
+// Scan k's decision for one point at `where(k)` by DJNN in a pipeline, whose pose clones give
+// the static test its joint fit.
 std::vector<Decision> djnnDecisions(const std::map<std::string, std::string>& params,
                                     const std::function<Eigen::Vector2d(int)>& where) {
   SlamPipeline pipeline(linearConfig(), djnnAllAround(params));
-  return firstDecisions(&pipeline, [&](int k) {
-    Observation z;
-    z.kind = MeasurementKind::kCartesian;
-    z.z = where(k) - Eigen::Vector2d(1.0 * k, 0.0);
-    z.R = Eigen::Vector2d(0.02, 0.05).asDiagonal();
-    return std::vector<Observation>{z};
-  });
+  return firstDecisions(&pipeline, [&](int k) { return sightedAt(k, {where(k)}); });
 }
 
 int admittedAt(const std::vector<Decision>& decisions) {
@@ -322,15 +329,7 @@ TEST(DelayedSightings, AdmissionVelocityTestWaivedOnlyWhereNoMoverIsSeen) {
     return firstDecisions(&pipeline, [&](int k) {
       std::vector<Eigen::Vector2d> where = {Eigen::Vector2d(6.0, 2.0 + 0.12 * k)};
       for (int i = 0; posts && i < 20; ++i) where.emplace_back(-10.0 + 1.5 * i, -8.0);
-      std::vector<Observation> scan;
-      for (const Eigen::Vector2d& w : where) {
-        Observation z;
-        z.kind = MeasurementKind::kCartesian;
-        z.z = w - Eigen::Vector2d(1.0 * k, 0.0);
-        z.R = Eigen::Vector2d(0.02, 0.05).asDiagonal();
-        scan.push_back(z);
-      }
-      return scan;
+      return sightedAt(k, where);
     });
   };
   EXPECT_EQ(admittedAt(decisions(false, true)), -1);
@@ -353,15 +352,7 @@ TEST(DelayedSightings, StaticTestFailureIsChanceOnlyWhereNoMoverIsSeen) {
       std::vector<Eigen::Vector2d> where = {Eigen::Vector2d(6.0, k == 1 ? 2.72 : 2.0)};
       for (int i = 0; posts && i < 100; ++i)
         where.emplace_back(-10.0 + 1.5 * (i % 10), -8.0 - 1.5 * (i / 10));
-      std::vector<Observation> scan;
-      for (const Eigen::Vector2d& w : where) {
-        Observation z;
-        z.kind = MeasurementKind::kCartesian;
-        z.z = w - Eigen::Vector2d(1.0 * k, 0.0);
-        z.R = Eigen::Vector2d(0.02, 0.05).asDiagonal();
-        scan.push_back(z);
-      }
-      return scan;
+      return sightedAt(k, where);
     });
   };
   EXPECT_EQ(admittedAt(decisions(true, true)), 6);

@@ -496,5 +496,43 @@ TEST(DJNNAdmission, FewerSightingsOnlyWhereTheStaticTestShowsNoMovers) {
   EXPECT_GT(restarts, 20u);
 }
 
+// sightings_admit_without_movers: at P_D 0.7 a hit scores 1.3 and a miss -0.7, so a point seen in
+// every other scan nets 0.6 per sighting and the paper's T reaches admit_evidence 7 only at its
+// eleventh sighting. Among static points it is admitted at its seventh; among slow movers (which
+// keep failing the static test), or with the rule off, it waits for the eleventh.
+TEST(DJNNAdmission, StaticSightingsAdmitDespiteMissesOnlyWhereNoMoverIsSeen) {
+  auto sightingAdmitted = [](bool movers, bool rule) {
+    Scene s;
+    s.pose_cov = assoc_test::poseCov(0.2, 0.2, 0.01);
+    s.R = assoc_test::diag2(0.01, deg2rad(0.1));
+    s.build();
+    DJNN d = makeDjnn({{"detection_probability", "0.7"},
+                       {"admit_evidence", "7"},
+                       {"static_test", "true"},
+                       {"missed_detection_profile", "false"},
+                       {"sightings_admit_without_movers", rule ? "true" : "false"}});
+    int sightings = 0;
+    for (int k = 0; k < 80; ++k) {
+      s.observations.clear();
+      s.truth.clear();
+      for (int i = 0; i < 4; ++i) s.observePoint({4.0 + 3.0 * i, 6.0});
+      if (movers) {
+        for (int j = 0; j < 6; ++j) {
+          s.observePoint(Eigen::Vector2d(5.0 + 2.0 * j, -4.0) +
+                         0.1 * Eigen::Vector2d(std::cos(k + j), std::sin(k + j)));
+        }
+      }
+      const bool seen = k >= 40 && k % 2 == 0;
+      if (seen) s.observePoint({10.0, 12.0});
+      const AssociationResult r = d.associate(s.context(0.2 * k));
+      if (seen && (++sightings, r.decision.back() == Decision::kNew)) return sightings;
+    }
+    return -1;
+  };
+  EXPECT_EQ(sightingAdmitted(false, true), 7);
+  EXPECT_EQ(sightingAdmitted(false, false), 11);
+  EXPECT_EQ(sightingAdmitted(true, true), 11);
+}
+
 }  // namespace test_djnn_admission
 }  // namespace ekf_slam

@@ -301,9 +301,12 @@ Decision DJNN::decide(const AssociationContext& ctx, int obs, int slot, double e
                       bool paper_admits) {
   const char force = scan_.force_new[obs];
   const Tentative& t = paper_.tentatives()[slot];
+  // The paper's evidence, or where no mover is seen enough static sightings (static_test.h).
+  const bool evidence_admits = paper_admits || static_test_.admitsOnSightings(t);
   const bool static_ok =
-      static_test_.admits(t) && !(paper_admits && static_test_.movingAtAdmission(ctx, t, obs));
-  const bool admitting = force == kForceAdmit || (force != kForceHeld && paper_admits && static_ok);
+      static_test_.admits(t) && !(evidence_admits && static_test_.movingAtAdmission(ctx, t, obs));
+  const bool admitting =
+      force == kForceAdmit || (force != kForceHeld && evidence_admits && static_ok);
   if (admitting && spacing_.within(ctx, obs, scan_.cand, paper_.gate())) {
     ++stats_.spacing_refused;
     return Decision::kTentative;
@@ -315,7 +318,7 @@ Decision DJNN::decide(const AssociationContext& ctx, int obs, int slot, double e
     ++stats_.remembered_admitted;
     return Decision::kNew;
   }
-  if (paper_admits && static_ok) {
+  if (evidence_admits && static_ok) {
     pending_new_[obs] = evidence;
     mover_speed_.admitting(obs, t, static_test_);
     return Decision::kNew;

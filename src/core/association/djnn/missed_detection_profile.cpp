@@ -9,6 +9,7 @@ const std::map<std::string, std::string>& missedDetectionDefaults() {
       {"static_heading", "true"},                      // StaticTest
       {"waive_velocity_test_without_movers", "true"},  // StaticTest
       {"chance_failures_without_movers", "true"},      // StaticTest
+      {"sightings_admit_without_movers", "true"},      // StaticTest
       {"learn_mover_speed", "true"},                   // MoverSpeed: the movers' speed, online
       {"density_test", "true"},       // DensityTest (its density: estimated by default)
       {"bias_keep_pairings", "10"},   // BiasTest: established landmarks

@@ -9,8 +9,10 @@
 // the sightings' joint constant-velocity fit must show no velocity at
 // admission_velocity_probability), fewer_sightings_without_movers (while the test's own failures
 // show no mover, static_failure_rate.h, admission waits for the paper's evidence alone),
-// waive_velocity_test_without_movers (nor is the admission velocity test asked for then) and
-// chance_failures_without_movers (nor does a failed test restart the feature then).
+// waive_velocity_test_without_movers (nor is the admission velocity test asked for then),
+// chance_failures_without_movers (nor does a failed test restart the feature then) and
+// sightings_admit_without_movers (admit_evidence static sightings admit a feature then, whatever
+// its misses).
 #pragma once
 
 #include <vector>
@@ -45,6 +47,9 @@ class StaticTest {
     /// While it shows no mover, a sighting that fails the test is a static point's chance
     /// failure: fused, but left out of the test's sums, instead of restarting the feature.
     bool chance_failures_without_movers = false;
+    /// While it shows no mover, admit_evidence sightings of one static point admit the feature
+    /// whatever the paper's evidence lost to misses.
+    bool sightings_admit_without_movers = false;
   };
   void read(const ParameterReader& r);
   /// admit_evidence: the sightings admission waits for (and the gate table's size); learning:
@@ -98,6 +103,9 @@ class StaticTest {
   /// The static sightings admission waits for now: admit_evidence, or 1 (the paper's evidence
   /// decides) while fewer_sightings_without_movers and the failures rule movers out.
   int sightingsNeeded() const;
+  /// sightings_admit_without_movers: while the failures rule movers out, t has admit_evidence
+  /// sightings of one static point, which admits it whatever the paper's evidence.
+  bool admitsOnSightings(const Tentative& t) const;
   /// admission_velocity_test: t's sightings with pose clones and observation `obs`, fitted with a
   /// constant velocity (jointTrack), show a velocity beyond chi2(2,
   /// admission_velocity_probability). False when off or when the fit is not available (fewer than

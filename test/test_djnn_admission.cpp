@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <random>
 #include <string>
@@ -454,45 +455,59 @@ TEST(DJNNAdmission, StaticFailureRateRulesMoversOutOnlyWhenTheTestRarelyFails) {
   EXPECT_EQ(rate.tests(), 0.0);
 }
 
+// Four static points seen in every scan and, with `movers`, six slow movers that keep failing the
+// static test; a point at (10, 12) is seen in the scans k >= 40 that `seen` names. Returns the
+// sighting of that point (1-based) at which it is admitted, -1 if never in 80 scans, and the
+// static test's restarts until then.
+int sightingAdmittedAmongPoints(const std::map<std::string, std::string>& params, bool movers,
+                                const std::function<bool(int)>& seen,
+                                std::uint64_t* restarts = nullptr) {
+  Scene s;
+  s.pose_cov = assoc_test::poseCov(0.2, 0.2, 0.01);
+  s.R = assoc_test::diag2(0.01, deg2rad(0.1));
+  s.build();
+  std::map<std::string, std::string> p = {
+      {"admit_evidence", "7"}, {"static_test", "true"}, {"missed_detection_profile", "false"}};
+  for (const auto& kv : params) p[kv.first] = kv.second;
+  DJNN d = makeDjnn(p);
+  int sightings = 0;
+  for (int k = 0; k < 80; ++k) {
+    s.observations.clear();
+    s.truth.clear();
+    for (int i = 0; i < 4; ++i) s.observePoint({4.0 + 3.0 * i, 6.0});
+    if (movers) {
+      for (int j = 0; j < 6; ++j) {
+        s.observePoint(Eigen::Vector2d(5.0 + 2.0 * j, -4.0) +
+                       0.1 * Eigen::Vector2d(std::cos(k + j), std::sin(k + j)));
+      }
+    }
+    const bool sighted = k >= 40 && seen(k);
+    if (sighted) s.observePoint({10.0, 12.0});
+    const AssociationResult r = d.associate(s.context(0.2 * k));
+    if (sighted && (++sightings, r.decision.back() == Decision::kNew)) {
+      if (restarts) *restarts = d.stats().static_restarts;
+      return sightings;
+    }
+  }
+  return -1;
+}
+
 // fewer_sightings_without_movers: at P_D 0.4 a hit scores 2 (1 - 0.2) = 1.6, so the paper's T
 // reaches admit_evidence 7 at the fifth sighting. A point that appears among static points seen in
 // every scan is admitted then; among slow movers (which keep failing the static test) it waits for
 // the seventh sighting, as it does with the rule off.
 TEST(DJNNAdmission, FewerSightingsOnlyWhereTheStaticTestShowsNoMovers) {
-  auto sightingAdmitted = [](bool movers, bool rule, std::uint64_t* restarts) {
-    Scene s;
-    s.pose_cov = assoc_test::poseCov(0.2, 0.2, 0.01);
-    s.R = assoc_test::diag2(0.01, deg2rad(0.1));
-    s.build();
-    DJNN d = makeDjnn({{"detection_probability", "0.4"},
-                       {"admit_evidence", "7"},
-                       {"static_test", "true"},
-                       {"missed_detection_profile", "false"},
-                       {"fewer_sightings_without_movers", rule ? "true" : "false"}});
-    for (int k = 0; k < 60; ++k) {
-      s.observations.clear();
-      s.truth.clear();
-      for (int i = 0; i < 4; ++i) s.observePoint({4.0 + 3.0 * i, 6.0});
-      if (movers) {
-        for (int j = 0; j < 6; ++j) {
-          s.observePoint(Eigen::Vector2d(5.0 + 2.0 * j, -4.0) +
-                         0.1 * Eigen::Vector2d(std::cos(k + j), std::sin(k + j)));
-        }
-      }
-      if (k >= 40) s.observePoint({10.0, 12.0});
-      const AssociationResult r = d.associate(s.context(0.2 * k));
-      if (k >= 40 && r.decision.back() == Decision::kNew) {
-        *restarts = d.stats().static_restarts;
-        return k - 39;
-      }
-    }
-    return -1;
+  auto admitted = [](bool movers, bool rule, std::uint64_t* restarts) {
+    return sightingAdmittedAmongPoints(
+        {{"detection_probability", "0.4"},
+         {"fewer_sightings_without_movers", rule ? "true" : "false"}},
+        movers, [](int) { return true; }, restarts);
   };
   std::uint64_t restarts = 0;
-  EXPECT_EQ(sightingAdmitted(false, true, &restarts), 5);
+  EXPECT_EQ(admitted(false, true, &restarts), 5);
   EXPECT_EQ(restarts, 0u);
-  EXPECT_EQ(sightingAdmitted(false, false, &restarts), 7);
-  EXPECT_EQ(sightingAdmitted(true, true, &restarts), 7);
+  EXPECT_EQ(admitted(false, false, &restarts), 7);
+  EXPECT_EQ(admitted(true, true, &restarts), 7);
   EXPECT_GT(restarts, 20u);
 }
 
@@ -501,37 +516,15 @@ TEST(DJNNAdmission, FewerSightingsOnlyWhereTheStaticTestShowsNoMovers) {
 // eleventh sighting. Among static points it is admitted at its seventh; among slow movers (which
 // keep failing the static test), or with the rule off, it waits for the eleventh.
 TEST(DJNNAdmission, StaticSightingsAdmitDespiteMissesOnlyWhereNoMoverIsSeen) {
-  auto sightingAdmitted = [](bool movers, bool rule) {
-    Scene s;
-    s.pose_cov = assoc_test::poseCov(0.2, 0.2, 0.01);
-    s.R = assoc_test::diag2(0.01, deg2rad(0.1));
-    s.build();
-    DJNN d = makeDjnn({{"detection_probability", "0.7"},
-                       {"admit_evidence", "7"},
-                       {"static_test", "true"},
-                       {"missed_detection_profile", "false"},
-                       {"sightings_admit_without_movers", rule ? "true" : "false"}});
-    int sightings = 0;
-    for (int k = 0; k < 80; ++k) {
-      s.observations.clear();
-      s.truth.clear();
-      for (int i = 0; i < 4; ++i) s.observePoint({4.0 + 3.0 * i, 6.0});
-      if (movers) {
-        for (int j = 0; j < 6; ++j) {
-          s.observePoint(Eigen::Vector2d(5.0 + 2.0 * j, -4.0) +
-                         0.1 * Eigen::Vector2d(std::cos(k + j), std::sin(k + j)));
-        }
-      }
-      const bool seen = k >= 40 && k % 2 == 0;
-      if (seen) s.observePoint({10.0, 12.0});
-      const AssociationResult r = d.associate(s.context(0.2 * k));
-      if (seen && (++sightings, r.decision.back() == Decision::kNew)) return sightings;
-    }
-    return -1;
+  auto admitted = [](bool movers, bool rule) {
+    return sightingAdmittedAmongPoints(
+        {{"detection_probability", "0.7"},
+         {"sightings_admit_without_movers", rule ? "true" : "false"}},
+        movers, [](int k) { return k % 2 == 0; });
   };
-  EXPECT_EQ(sightingAdmitted(false, true), 7);
-  EXPECT_EQ(sightingAdmitted(false, false), 11);
-  EXPECT_EQ(sightingAdmitted(true, true), 11);
+  EXPECT_EQ(admitted(false, true), 7);
+  EXPECT_EQ(admitted(false, false), 11);
+  EXPECT_EQ(admitted(true, true), 11);
 }
 
 }  // namespace test_djnn_admission

@@ -3,6 +3,7 @@
 // against it is the observation applied at the time, and removing it is its marginalisation.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -196,6 +197,32 @@ TEST(PoseClones, DelayedSightingsGiveTheImmediateEstimate) {
   }
   EXPECT_LT((now.mean() - delayed.mean()).cwiseAbs().maxCoeff(), 1e-9);
   EXPECT_LT((full(now) - full(delayed)).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+// EkfSlam::innovation: the innovation and S of one pairing, from the pose or a clone, are those the
+// update weighs (its NIS), and it changes nothing.
+TEST(PoseClones, TheInnovationOfOnePairingIsTheOneTheUpdateWeighs) {
+  EkfSlam ekf = busyFilter();
+  const CloneId c = ekf.addClone();
+  ekf.predict(turn(ekf, 1.0, 0.2));
+  const Eigen::Matrix2d R = Eigen::Vector2d(0.04, 0.001).asDiagonal();
+  for (const Pairing& p :
+       {Pairing{2, {2.5, 1.1}, R}, Pairing{1, {6.0, -0.3}, R, MeasurementKind::kRangeBearing, c}}) {
+    const Eigen::VectorXd x0 = ekf.mean();
+    Eigen::Vector2d v;
+    Eigen::Matrix2d S;
+    ASSERT_TRUE(ekf.innovation(p, kModel, &v, &S));
+    EXPECT_EQ(ekf.mean(), x0);
+    EkfSlam updated = ekf;
+    double nis = 0.0;
+    ASSERT_TRUE(updated.update({p}, kModel, &nis));
+    EXPECT_NEAR(v.dot(S.inverse() * v), nis, 1e-9 * std::max(1.0, nis));
+    EXPECT_GT(nis, 0.1);  // a real innovation, not a trivially equal zero
+  }
+  Eigen::Vector2d v;
+  Eigen::Matrix2d S;
+  EXPECT_FALSE(ekf.innovation({0, {4, 0}, R, MeasurementKind::kRangeBearing, 99}, kModel, &v, &S));
+  EXPECT_FALSE(ekf.innovation({77, {4, 0}, R}, kModel, &v, &S));
 }
 
 TEST(PoseClones, UnknownClonesAreRefused) {

@@ -368,6 +368,38 @@ Eigen::Vector2d exponentialMove(double phi, const Eigen::Vector2d& u, const Eige
 
 }  // namespace
 
+bool EkfSlam::innovation(const Pairing& p, const RangeBearingModel& model, Eigen::Vector2d* v,
+                         Eigen::Matrix2d* S) const {
+  const int idx = indexOf(p.id);
+  const int c = p.clone == kNoClone ? 0 : cloneRow(p.clone);
+  if (idx < 0 || c < 0 || !p.z.allFinite() || !p.R.allFinite()) return false;
+  const int r = stateRow(idx);
+  Matrix23d Hv;
+  Eigen::Matrix2d Hm;
+  Eigen::Vector2d z_hat = model.predict(x_.segment<3>(c), x_.segment<2>(r), p.kind, &Hv, &Hm);
+  Eigen::Matrix2d R = p.R;
+  Eigen::Vector2d mean;
+  Eigen::Matrix2d extra;
+  if (secondOrderTerms(idx, c, model, p.kind, &mean, &extra)) {
+    z_hat += mean;
+    R += extra;
+  }
+  // Only the current part of P is read (the lower triangle, and the pose rows).
+  const ConstMatrixView P = storedCovariance();
+  const Eigen::Matrix3d Pvv = Eigen::Matrix3d(P.block<3, 3>(c, c)).selfadjointView<Eigen::Lower>();
+  const Eigen::Matrix2d Pmm = Eigen::Matrix2d(P.block<2, 2>(r, r)).selfadjointView<Eigen::Lower>();
+  const Eigen::Matrix<double, 2, 3> Pmv =
+      r > c ? Eigen::Matrix<double, 2, 3>(P.block<2, 3>(r, c))
+            : Eigen::Matrix<double, 2, 3>(P.block<3, 2>(c, r).transpose());
+  const Eigen::Matrix2d cross = Hm * Pmv * Hv.transpose();
+  Eigen::Matrix2d s =
+      Hv * Pvv * Hv.transpose() + cross + cross.transpose() + Hm * Pmm * Hm.transpose() + R;
+  s = 0.5 * (s + s.transpose()).eval();
+  *v = RangeBearingModel::innovation(p.z, z_hat, p.kind);
+  *S = s;
+  return v->allFinite() && S->allFinite();
+}
+
 void EkfSlam::retractInvariant(const Eigen::Ref<const Eigen::VectorXd>& dx,
                                Eigen::VectorXd* moved) {
   // dx is T(x) xi to first order: a position's xi is its dx less the rotation part phi J p.

@@ -193,6 +193,12 @@ class EkfSlam {
   bool update(const std::vector<Pairing>& pairings, const RangeBearingModel& model,
               double* nis = nullptr);
 
+  /// The innovation v and its covariance S = H P H^T + R of one pairing (from its clone's pose when
+  /// it names one), H at the current estimate; nothing changes. False when the landmark or the
+  /// clone is unknown or anything is not finite. O(1): it reads five blocks of P.
+  bool innovation(const Pairing& pairing, const RangeBearingModel& model, Eigen::Vector2d* v,
+                  Eigen::Matrix2d* S) const;
+
   /// Initialises a landmark from observation z with the inverse observation model and both of
   /// its Jacobians. O(n) arithmetic (plus, when the storage is full, one copy of P into storage
   /// half as large again). Returns its new id, or kNoLandmark (state unchanged) when z, R or the

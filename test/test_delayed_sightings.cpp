@@ -56,13 +56,16 @@ PipelineConfig linearConfig() {
   return readPipelineConfig(p);
 }
 
-std::vector<Observation> sightings(int scan, bool with_second) {
+// `shift`: added to the second landmark's sighting (a mover's track beside it).
+std::vector<Observation> sightings(int scan, bool with_second,
+                                   const Eigen::Vector2d& shift = Eigen::Vector2d::Zero()) {
   const Eigen::Vector2d pose(1.0 * scan, 0.0);
   std::vector<Observation> out;
   for (int l = 0; l < (with_second ? 2 : 1); ++l) {
     Observation o;
     o.kind = MeasurementKind::kCartesian;
     o.z = kLandmarks[l] - pose + (l == 0 ? 1.0 : -0.5) * kNoise[(scan + 3 * l) % 10];
+    if (l == 1) o.z += shift;
     o.R = Eigen::Vector2d(0.02, 0.05).asDiagonal();
     o.R(0, 1) = o.R(1, 0) = 0.01;
     out.push_back(o);
@@ -71,15 +74,17 @@ std::vector<Observation> sightings(int scan, bool with_second) {
 }
 
 // Runs the drive; scan k's observations go through `pipeline` (the second landmark only when
-// `second(k)`); returns the largest clone count seen.
-std::size_t drive(SlamPipeline* pipeline, const std::function<bool(int)>& second) {
+// `second(k)`, shifted by `shift(k)`); returns the largest clone count seen.
+std::size_t drive(SlamPipeline* pipeline, const std::function<bool(int)>& second,
+                  const std::function<Eigen::Vector2d(int)>& shift = nullptr) {
   std::size_t clones = 0;
   for (int k = 0; k < kScans; ++k) {
     OdometryInput o;
     o.stamp = k - 0.5;
     o.twist = Eigen::Vector2d(1.0, 0.0);
     pipeline->addOdometry(o);
-    pipeline->processObservations(k, sightings(k, second(k)));
+    pipeline->processObservations(
+        k, sightings(k, second(k), shift ? shift(k) : Eigen::Vector2d::Zero()));
     clones = std::max(clones, pipeline->ekf().numClones());
   }
   return clones;
@@ -209,6 +214,94 @@ TEST(DelayedSightings, AFeatureThatJoinsAMappedLandmarkHandsItItsSightings) {
   const int idx = lost.ekf().indexOf(1);
   EXPECT_GT(lost.ekf().landmarkCovariance(idx).trace(),
             1.2 * now.ekf().landmarkCovariance(now.ekf().indexOf(1)).trace());
+}
+
+// Landmark 1: tentative feature 17 at scans 0-2; at scan 3 the associator restarts it as feature
+// 18 (a failed static test), handing run 17 on (`hand_on`) or ending it; feature 18 is admitted at
+// scan `end` and paired after, or (`admit` false) dropped at scan `end`.
+ScriptedAssociator::Script restartScript(bool hand_on, int end, bool admit) {
+  return [=](int scan, const AssociationContext& ctx) {
+    AssociationResult r;
+    r.resize(ctx.numObservations());
+    if (scan == 0) {
+      r.decision[0] = Decision::kNew;
+    } else {
+      r.pair(0, 0);
+    }
+    if (ctx.numObservations() < 2) return r;
+    if (scan > end) {
+      r.pair(1, 1);
+      return r;
+    }
+    const FeatureKey key = scan < 3 ? 17 : 18;
+    if (scan == 3) {
+      if (hand_on) {
+        r.restarted_features.emplace_back(17, 18);
+      } else {
+        r.ended_features.push_back(17);
+      }
+    }
+    if (scan < end) {
+      r.decision[1] = Decision::kTentative;
+      r.feature[1] = key;
+    } else if (admit) {
+      r.decision[1] = Decision::kNew;
+      r.feature[1] = key;
+      r.ended_features.push_back(key);
+    } else {
+      r.ended_features.push_back(key);  // dropped: this sighting is rejected
+    }
+    return r;
+  };
+}
+
+TEST(DelayedSightings, ARestartedFeaturesEarlierSightingsThatFitReachTheLandmark) {
+  auto restarted_assoc = std::make_shared<ScriptedAssociator>(restartScript(true, 6, true));
+  SlamPipeline restarted(linearConfig(), restarted_assoc);
+  EXPECT_GE(drive(&restarted, [](int) { return true; }), 6u);
+  EXPECT_EQ(restarted.counters().delayed_sightings, 6u);
+  EXPECT_EQ(restarted.counters().restarted_sightings, 3u);
+  // The state of a landmark paired from its first sighting (the filter is linear).
+  auto now_assoc = std::make_shared<ScriptedAssociator>(nullptr);
+  *now_assoc = ScriptedAssociator(delayedScript(0, &now_assoc->added));
+  SlamPipeline now(linearConfig(), now_assoc);
+  drive(&now, [](int) { return true; });
+  expectSameState(restarted.ekf(), now.ekf(), 1e-9);
+  // Ended at the restart, the first run's three sightings are lost.
+  auto ended_assoc = std::make_shared<ScriptedAssociator>(restartScript(false, 6, true));
+  SlamPipeline ended(linearConfig(), ended_assoc);
+  drive(&ended, [](int) { return true; });
+  EXPECT_EQ(ended.counters().delayed_sightings, 3u);
+  EXPECT_GT(ended.ekf().landmarkCovariance(ended.ekf().indexOf(1)).trace(),
+            1.1 * now.ekf().landmarkCovariance(now.ekf().indexOf(1)).trace());
+}
+
+TEST(DelayedSightings, ARestartedRunOffTheLandmarkStaysOut) {
+  // The first run was something else: a track 2 m beside the landmark.
+  const auto beside = [](int k) {
+    return k < 3 ? Eigen::Vector2d(2.0, 0.0) : Eigen::Vector2d::Zero();
+  };
+  auto restarted_assoc = std::make_shared<ScriptedAssociator>(restartScript(true, 6, true));
+  SlamPipeline restarted(linearConfig(), restarted_assoc);
+  drive(
+      &restarted, [](int) { return true; }, beside);
+  EXPECT_EQ(restarted.counters().restarted_sightings, 0u);
+  auto ended_assoc = std::make_shared<ScriptedAssociator>(restartScript(false, 6, true));
+  SlamPipeline ended(linearConfig(), ended_assoc);
+  drive(
+      &ended, [](int) { return true; }, beside);
+  expectSameState(restarted.ekf(), ended.ekf(), 1e-12);
+}
+
+TEST(DelayedSightings, ARestartedFeatureThatIsDroppedLeavesTheStateAsIfNeverSeen) {
+  auto dropped_assoc = std::make_shared<ScriptedAssociator>(restartScript(true, 5, false));
+  SlamPipeline dropped(linearConfig(), dropped_assoc);
+  EXPECT_GE(drive(&dropped, [](int k) { return k <= 5; }), 5u);
+  EXPECT_EQ(dropped.counters().delayed_sightings, 0u);
+  auto never_assoc = std::make_shared<ScriptedAssociator>(restartScript(true, 5, false));
+  SlamPipeline never(linearConfig(), never_assoc);
+  drive(&never, [](int) { return false; });
+  expectSameState(dropped.ekf(), never.ekf(), 1e-12);
 }
 
 TEST(DelayedSightings, CloneCountIsCapped) {

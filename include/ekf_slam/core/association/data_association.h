@@ -48,6 +48,11 @@ struct AssociationResult {
   std::vector<FeatureKey> feature;
   /// Features no longer tracked (dropped, restarted or admitted): their sightings are let go.
   std::vector<FeatureKey> ended_features;
+  /// (earlier run, new run): a feature restarted because its sightings were not one static point
+  /// (DJNN's static test), whose earlier sightings may still be the same object's (a static
+  /// point's chance failure). The pipeline keeps them with the new run and, when it is admitted,
+  /// applies those that fit the landmark it became; they go when the new run ends.
+  std::vector<std::pair<FeatureKey, FeatureKey>> restarted_features;
   /// Observations the associator recognised as a map landmark without the pose (e.g. RRWSC's
   /// graph matching) that the filter gate then refused: evidence that the pose, not the
   /// observation, is wrong (SlamPipeline's lost rule 3, docs/relocalisation.md). Associators that
@@ -63,6 +68,7 @@ struct AssociationResult {
     feature.assign(n, kNoFeature);
     remove.clear();
     ended_features.clear();
+    restarted_features.clear();
     gate_refused = 0;
     notice.clear();
   }

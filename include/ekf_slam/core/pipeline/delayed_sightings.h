@@ -7,12 +7,18 @@
 // associator finds a feature to be a landmark already mapped: AssociationResult::feature of a
 // pairing); a feature that is dropped only lets its clones go, which leaves the state exactly as
 // if it had never been seen.
+// A feature restarted by the associator (AssociationResult::restarted_features: DJNN's static test
+// found its sightings not one static point) keeps its earlier runs' sightings aside. At admission,
+// after the run's own batch, each of them that lies within the gate
+// (restarted_sighting_probability) of the landmark is applied in a second batch: a static point's
+// chance failure loses nothing, and a mover's earlier track stays out.
 // The clones cost 3 state rows each: at most max_pose_clones are kept (the oldest go first).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -56,6 +62,11 @@ class DelayedSightings {
     MeasurementKind kind;
   };
   void release(std::vector<Kept>* sightings);
+  /// Releases feature f's run and earlier runs.
+  void end(FeatureKey f);
+  /// The earlier runs' sightings of the features admitted this scan that fit their landmarks, in
+  /// a second batch (after the runs' own).
+  bool applyEarlierRuns(ScanReport* report);
   void dropOldestClone();
 
   const PipelineConfig& config_;
@@ -63,8 +74,10 @@ class DelayedSightings {
   const RangeBearingModel& model_;
   PipelineCounters& counters_;
   std::unordered_map<FeatureKey, std::vector<Kept>> features_;
-  std::unordered_map<CloneId, int> uses_;  // sightings per clone
-  std::vector<Pairing> batch_;             // per-scan workspaces
+  std::unordered_map<FeatureKey, std::vector<Kept>> earlier_;  // restarted runs, by live run
+  std::vector<std::pair<FeatureKey, LandmarkId>> joined_;      // this scan's admissions
+  std::unordered_map<CloneId, int> uses_;                      // sightings per clone
+  std::vector<Pairing> batch_;                                 // per-scan workspaces
   std::vector<FeatureKey> admitted_;
 };
 

@@ -204,6 +204,10 @@ struct PipelineConfig {
   /// (core/pipeline/delayed_sightings.h; filter ekf, slam mode), keeping at most max_pose_clones.
   bool delayed_sightings = true;
   int max_pose_clones = 40;
+  /// A restarted feature's earlier sightings (AssociationResult::restarted_features) are applied
+  /// at its admission when each lies within chi2(2, restarted_sighting_probability) of the
+  /// landmark, after the run's own sightings.
+  double restarted_sighting_probability = 0.999;
 
   /// Throws ParameterError naming the first invalid setting.
   void validate() const;

@@ -175,6 +175,8 @@ struct PipelineCounters {
   std::uint64_t delayed_sightings = 0;
   std::uint64_t rejected_delayed_updates = 0;
   std::uint64_t dropped_sightings = 0;
+  /// Of delayed_sightings: a restarted feature's earlier sightings that fit its landmark.
+  std::uint64_t restarted_sightings = 0;
   /// Landmarks mapped from the lost scans, or still recent when they began, that the associator's
   /// rules had removed by the fix (DataAssociation::landmarkFromLostScans, landmarkOverLostScans).
   std::uint64_t lost_map_removed = 0;

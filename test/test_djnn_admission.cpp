@@ -527,5 +527,40 @@ TEST(DJNNAdmission, StaticSightingsAdmitDespiteMissesOnlyWhereNoMoverIsSeen) {
   EXPECT_EQ(admitted(true, true), 11);
 }
 
+// restarted_sightings: a feature the static test restarts hands its earlier run on to the
+// pipeline (AssociationResult::restarted_features, earlier key -> the new run's key) instead of
+// ending it; off, the earlier run ends with its sightings.
+TEST(DJNNAdmission, ARestartHandsTheEarlierRunOn) {
+  for (const bool on : {true, false}) {
+    Scene s;
+    s.pose_cov = assoc_test::poseCov(0.2, 0.2, 0.01);
+    s.R = assoc_test::diag2(0.01, deg2rad(0.1));
+    s.build();
+    DJNN d = makeDjnn({{"admit_evidence", "7"},
+                       {"static_test", "true"},
+                       {"missed_detection_profile", "false"},
+                       {"restarted_sightings", on ? "true" : "false"}});
+    std::size_t handed = 0;
+    for (int k = 0; k < 40; ++k) {
+      s.observations.clear();
+      s.truth.clear();
+      for (int j = 0; j < 6; ++j) {  // slow movers: they keep failing the static test
+        s.observePoint(Eigen::Vector2d(5.0 + 2.0 * j, -4.0) +
+                       0.1 * Eigen::Vector2d(std::cos(k + j), std::sin(k + j)));
+      }
+      const AssociationResult r = d.associate(s.context(0.2 * k));
+      handed += r.restarted_features.size();
+      for (const auto& [earlier, run] : r.restarted_features) {
+        EXPECT_NE(earlier, run);
+        EXPECT_EQ(std::count(r.ended_features.begin(), r.ended_features.end(), earlier), 0);
+        EXPECT_EQ(std::count(r.feature.begin(), r.feature.end(), run), 1);  // its first sighting
+      }
+    }
+    const std::uint64_t restarts = d.stats().static_restarts;
+    EXPECT_GT(restarts, 10u);
+    EXPECT_EQ(handed, on ? restarts : 0u);
+  }
+}
+
 }  // namespace test_djnn_admission
 }  // namespace ekf_slam

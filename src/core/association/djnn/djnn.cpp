@@ -253,6 +253,7 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   static_test_.beginScan(ctx.ekf().poseCovariance());
   held_sightings_.join(ctx, scan_, this, &paper_, &result, &stats_);
   paper_.countFeatureEvidence(ctx, &scan_, &result, this, &stats_);
+  static_test_.endRestartedRuns(&result);
 
   mover_speed_.scanDone(ctx, result, paper_, scan_, p_.paper.admit_evidence, static_test_);
   static_test_.useLearnedSpeed(mover_speed_.speed());

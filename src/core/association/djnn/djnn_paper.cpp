@@ -106,6 +106,7 @@ void DjnnPaper::reset() {
   evidence_.clear();
   tentatives_.clear();
   ended_.clear();
+  restarted_.clear();
 }
 
 double DjnnPaper::evidenceValue(LandmarkId id) const {
@@ -388,8 +389,9 @@ void DjnnPaper::restartFeature(int slot, const Eigen::Vector2d& z, const Eigen::
                                FeatureRules* rules, double detectable) {
   Tentative& t = tentatives_[slot];
   // A new run of sightings: the earlier ones of a restarted feature no longer count.
-  if (t.key != kNoFeature) ended_.push_back(t.key);
+  const FeatureKey earlier = t.key;
   t.key = next_key_++;
+  if (earlier != kNoFeature) restarted_.emplace_back(earlier, t.key);
   t.cov = C;
   t.heading_lever = heading_lever;
   t.evidence = model_.step(true, C, detectable);  // seen now
@@ -667,6 +669,9 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
   }
   result->ended_features.insert(result->ended_features.end(), ended_.begin(), ended_.end());
   ended_.clear();
+  result->restarted_features.insert(result->restarted_features.end(), restarted_.begin(),
+                                    restarted_.end());
+  restarted_.clear();
 }
 
 }  // namespace ekf_slam

@@ -26,6 +26,14 @@ void StaticTest::read(const ParameterReader& r) {
       r.flag("chance_failures_without_movers", def.chance_failures_without_movers);
   p_.sightings_admit_without_movers =
       r.flag("sightings_admit_without_movers", def.sightings_admit_without_movers);
+  p_.restarted_sightings = r.flag("restarted_sightings", def.restarted_sightings);
+}
+
+void StaticTest::endRestartedRuns(AssociationResult* result) const {
+  if (p_.restarted_sightings) return;
+  for (const auto& [earlier, run] : result->restarted_features)
+    result->ended_features.push_back(earlier);
+  result->restarted_features.clear();
 }
 
 int StaticTest::sightingsNeeded() const {

@@ -224,7 +224,8 @@ class DjnnPaper {
   /// 4b. The features not in the map: the eligible unpaired observations matched one-to-one to
   /// tentative features (closest first), fused, counted; missed features counted down and
   /// dropped; decisions (kNew at admission, else kTentative) with their feature keys; stale
-  /// features swept; the keys that ended (result->ended_features).
+  /// features swept; the keys that ended (result->ended_features) and the runs restarted by the
+  /// static test (result->restarted_features).
   void countFeatureEvidence(const AssociationContext& ctx, LocalScan* scan,
                             AssociationResult* result, FeatureRules* rules, DjnnStats* stats);
 
@@ -267,6 +268,7 @@ class DjnnPaper {
   TentativeSet tentatives_;
   FeatureKey next_key_ = 0;
   std::vector<FeatureKey> ended_;  // keys that ended since the last countFeatureEvidence
+  std::vector<std::pair<FeatureKey, FeatureKey>> restarted_;  // (earlier run, new run)
   // Per-scan scratch.
   std::vector<int> tent_near_;
   std::vector<char> tent_hit_;

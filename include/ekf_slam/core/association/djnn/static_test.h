@@ -12,7 +12,8 @@
 // waive_velocity_test_without_movers (nor is the admission velocity test asked for then),
 // chance_failures_without_movers (nor does a failed test restart the feature then) and
 // sightings_admit_without_movers (admit_evidence static sightings admit a feature then, whatever
-// its misses).
+// its misses). restarted_sightings: a restart hands the earlier run to the pipeline, which keeps
+// the sightings that fit the landmark the feature becomes (a static point's chance failure).
 #pragma once
 
 #include <vector>
@@ -50,6 +51,10 @@ class StaticTest {
     /// While it shows no mover, admit_evidence sightings of one static point admit the feature
     /// whatever the paper's evidence lost to misses.
     bool sightings_admit_without_movers = false;
+    /// A restart passes the earlier run on to the pipeline (AssociationResult::
+    /// restarted_features), which applies at admission those of its sightings that fit the
+    /// landmark; off, the earlier run ends with its sightings.
+    bool restarted_sightings = true;
   };
   void read(const ParameterReader& r);
   /// admit_evidence: the sightings admission waits for (and the gate table's size); learning:
@@ -59,6 +64,8 @@ class StaticTest {
   const Params& params() const { return p_; }
   /// Parameters read elsewhere (DJNN switching to the missed-detection profile mid-run).
   void setParams(const Params& p) { p_ = p; }
+  /// restarted_sightings off: the restarted runs of `result` end instead (their sightings go).
+  void endRestartedRuns(AssociationResult* result) const;
   /// Forgets the learned speed and the failures (a new run).
   void reset() {
     learned_speed_ = 0.0;

@@ -100,18 +100,24 @@ void expectSameState(const EkfSlam& a, const EkfSlam& b, double tol) {
       tol);
 }
 
-// Landmark 0: new at scan 0, then paired. Landmark 1 (when present): tentative sightings of
+// Landmark 0: new at scan 0, then paired; the other observations rejected.
+AssociationResult firstLandmark(int scan, const AssociationContext& ctx) {
+  AssociationResult r;
+  r.resize(ctx.numObservations());
+  if (scan == 0) {
+    r.decision[0] = Decision::kNew;
+  } else {
+    r.pair(0, 0);
+  }
+  return r;
+}
+
+// Landmark 0 as above. Landmark 1 (when present): tentative sightings of
 // feature 17 until scan `admit`, where it is admitted (kNew), then paired; admit < 0: its
 // feature is dropped at scan `-admit`.
 ScriptedAssociator::Script delayedScript(int admit, std::map<int, LandmarkId>* /*added*/) {
   return [admit](int scan, const AssociationContext& ctx) {
-    AssociationResult r;
-    r.resize(ctx.numObservations());
-    if (scan == 0) {
-      r.decision[0] = Decision::kNew;
-    } else {
-      r.pair(0, 0);
-    }
+    AssociationResult r = firstLandmark(scan, ctx);
     if (ctx.numObservations() < 2) return r;
     if (admit >= 0 && scan > admit) {
       r.pair(1, 1);
@@ -221,13 +227,7 @@ TEST(DelayedSightings, AFeatureThatJoinsAMappedLandmarkHandsItItsSightings) {
 // scan `end` and paired after, or (`admit` false) dropped at scan `end`.
 ScriptedAssociator::Script restartScript(bool hand_on, int end, bool admit) {
   return [=](int scan, const AssociationContext& ctx) {
-    AssociationResult r;
-    r.resize(ctx.numObservations());
-    if (scan == 0) {
-      r.decision[0] = Decision::kNew;
-    } else {
-      r.pair(0, 0);
-    }
+    AssociationResult r = firstLandmark(scan, ctx);
     if (ctx.numObservations() < 2) return r;
     if (scan > end) {
       r.pair(1, 1);

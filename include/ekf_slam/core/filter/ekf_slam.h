@@ -195,7 +195,8 @@ class EkfSlam {
 
   /// The innovation v and its covariance S = H P H^T + R of one pairing (from its clone's pose when
   /// it names one), H at the current estimate; nothing changes. False when the landmark or the
-  /// clone is unknown or anything is not finite. O(1): it reads five blocks of P.
+  /// clone is unknown or anything is not finite. It reads three blocks of P: its cost does not
+  /// grow with the map (finding the clone is linear in the clones, at most max_pose_clones).
   bool innovation(const Pairing& pairing, const RangeBearingModel& model, Eigen::Vector2d* v,
                   Eigen::Matrix2d* S) const;
 

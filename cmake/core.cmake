@@ -55,6 +55,7 @@ add_library(ekf_slam_core
   src/core/association/djnn/pose_correction.cpp
   src/core/association/djnn/held_confirmation.cpp
   src/core/association/djnn/occluded_misses.cpp
+  src/core/association/djnn/optimal_assignment.cpp
   src/core/association/djnn/beam_spacing_misses.cpp
   src/core/association/djnn/held_sightings.cpp
   src/core/association/djnn/unmapped_returns.cpp

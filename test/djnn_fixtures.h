@@ -10,7 +10,8 @@ namespace ekf_slam {
 namespace assoc_test {
 
 // The paper's settings (0.95 gates, admission when seen twice, no static / bias tests, no density
-// estimate or joint decision at loop closures, P_D 1 stated so that it is not estimated): the
+// estimate or joint decision at loop closures, the paper's greedy resolution of interference, P_D 1
+// stated so that it is not estimated): the
 // hand-made problems of the tests are worked out for them. `params` override them; an empty value
 // leaves the key unset.
 inline DJNN makeDjnn(const std::map<std::string, std::string>& params = {}) {
@@ -21,6 +22,7 @@ inline DJNN makeDjnn(const std::map<std::string, std::string>& params = {}) {
                                           {"bias_test", "false"},
                                           {"estimate_landmark_density", "false"},
                                           {"loop_closure_age", "0"},
+                                          {"optimal_assignment", "false"},
                                           {"detection_probability", "1"}};
   for (const auto& kv : params) {
     if (kv.second.empty()) {

@@ -472,6 +472,38 @@ TEST(DJNN, CostDoesNotGrowWithFarLandmarks) {
 
 // --- hand-made problems -----------------------------------------------------------------------
 
+// optimal_assignment: two landmarks 1 m apart on one ray (sigma_r 0.7 m), the near one seen 0.7 m
+// long, the far one 0.4 m long; two posts seen exactly fix the compensation at zero. Both returns
+// are nearest the far landmark, which keeps the nearer one (the near landmark's, 0.3 m off), and
+// the loser takes the near landmark (1.4 m off): swapped, at a total Mahalanobis distance of 4.2
+// against 1.3 the right way round. The optimal assignment pairs each with its own landmark.
+TEST(DJNN, OptimalAssignmentUndoesASwapTheGreedyResolutionLeaves) {
+  Scene s = sharpScene(diag2(0.7, deg2rad(0.5)));
+  const int post1 = s.addLandmark(polar(14, 45), diag2(1e-3, 1e-3));
+  const int post2 = s.addLandmark(polar(14, -45), diag2(1e-3, 1e-3));
+  const int near = s.addLandmark(polar(15, 0), diag2(1e-3, 1e-3));
+  const int far = s.addLandmark(polar(16, 0), diag2(1e-3, 1e-3));
+  s.build();
+  observeBiased(&s, s.true_landmarks[post1], Eigen::Vector2d::Zero(), post1);
+  observeBiased(&s, s.true_landmarks[post2], Eigen::Vector2d::Zero(), post2);
+  const int o_near = observeBiased(&s, s.true_landmarks[near], {0.7, 0.0}, near);
+  const int o_far = observeBiased(&s, s.true_landmarks[far], {0.4, 0.0}, far);
+  const AssociationContext ctx = s.context();
+
+  DJNN greedy = makeDjnn();
+  const AssociationResult g = greedy.associate(ctx);
+  EXPECT_EQ(g.landmark[o_near], Scene::idOf(far));  // the problem is real
+  EXPECT_EQ(g.landmark[o_far], Scene::idOf(near));
+
+  DJNN optimal = makeDjnn({{"optimal_assignment", "true"}});
+  const AssociationResult r = optimal.associate(ctx);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(r.decision[i], Decision::kPaired) << i;
+    EXPECT_EQ(r.landmark[i], s.expectId(i)) << i;
+  }
+  EXPECT_EQ(optimal.stats().reassigned, 2u);
+}
+
 TEST(DJNN, TwoObservationsCompeteForOneLandmark) {
   Scene s;
   const int l = s.addLandmark({10, 0});

@@ -79,6 +79,8 @@ void DJNN::configure(const ParameterSource& user) {
   bias.read(r);
   OccludedMisses occlusion;
   occlusion.read(r, paper.individual_probability);
+  OptimalAssignment assignment;
+  assignment.read(r);
   BeamSpacingMisses beam_spacing;
   beam_spacing.read(r);
   HeldSightings held_sightings;
@@ -100,6 +102,7 @@ void DJNN::configure(const ParameterSource& user) {
   p.spacing = spacing.params();
   p.confirmation = confirmation.params();
   p.occlusion = occlusion.params();
+  p.assignment = assignment.params();
   p.beam_spacing = beam_spacing.params();
   p.held_sightings = held_sightings.params();
   p.unmapped = unmapped.params();
@@ -130,6 +133,7 @@ void DJNN::configure(const ParameterSource& user) {
   confirmation_ = confirmation;
   bias_test_ = bias;
   occlusion_ = occlusion;
+  assignment_ = assignment;
   beam_spacing_ = beam_spacing;
   held_sightings_ = held_sightings;
   unmapped_ = unmapped;
@@ -211,6 +215,8 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   density_test_.observe(ctx, paper_, scan_);
   last_case_ = paper_.resolveInterference(ctx, &scan_, &stats_);
   ++stats_.cases[static_cast<int>(last_case_)];
+  // The same pairings, exchanged where that fits them better jointly.
+  assignment_.apply(ctx, paper_, &scan_, &stats_);
 
   // Extensions on the pairing: unpaired but ambiguous observations make no feature; at a loop
   // closure the joint decision weighs every hypothesis the density test weighs, the scan shifted

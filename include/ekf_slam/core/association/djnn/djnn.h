@@ -16,6 +16,8 @@
 //   BiasTest             bias_*                          landmarks dragged along by movers
 //   FollowPose           tentative_follow_pose           tentative features left behind when
 //                                                        the pose is corrected
+//   OptimalAssignment    optimal_assignment              returns of close landmarks left swapped by
+//                                                        the greedy resolution of interference
 //   DensityTest          density_test, landmark_density, estimate_landmark_density
 //                                                        a new landmark paired with an old one
 //   missed-detection profile (missed_detection_profile.h): the defaults of the parts above for a
@@ -61,6 +63,7 @@
 #include "ekf_slam/core/association/djnn/local_scan.h"
 #include "ekf_slam/core/association/djnn/mover_speed.h"
 #include "ekf_slam/core/association/djnn/occluded_misses.h"
+#include "ekf_slam/core/association/djnn/optimal_assignment.h"
 #include "ekf_slam/core/association/djnn/remembered_features.h"
 #include "ekf_slam/core/association/djnn/static_test.h"
 #include "ekf_slam/core/association/djnn/unmapped_returns.h"
@@ -86,6 +89,7 @@ class DJNN : public DataAssociation, private FeatureRules {
     LandmarkSpacing::Params spacing;
     HeldConfirmation::Params confirmation;
     OccludedMisses::Params occlusion;
+    OptimalAssignment::Params assignment;
     BeamSpacingMisses::Params beam_spacing;
     HeldSightings::Params held_sightings;
     UnmappedReturns::Params unmapped;
@@ -153,6 +157,7 @@ class DJNN : public DataAssociation, private FeatureRules {
   LandmarkSpacing spacing_;
   HeldConfirmation confirmation_;
   OccludedMisses occlusion_;
+  OptimalAssignment assignment_;
   BeamSpacingMisses beam_spacing_;
   HeldSightings held_sightings_;
   UnmappedReturns unmapped_;

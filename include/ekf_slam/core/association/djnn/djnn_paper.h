@@ -71,6 +71,8 @@ struct DjnnStats {
   std::uint64_t hidden_misses = 0;
   /// Features born held that joined the landmark a later sighting paired (HeldSightings).
   std::uint64_t held_joined = 0;
+  /// Observations the optimal assignment gave another landmark than the paper's resolution.
+  std::uint64_t reassigned = 0;
 };
 
 /// The paper's parameters (names as read; defaults in docs/djnn.md).

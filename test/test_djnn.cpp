@@ -62,6 +62,22 @@ std::vector<int> plainNN(const AssociationContext& ctx) {
   return out;
 }
 
+// Two posts at 14 m and +-45 deg, and two landmarks on the ray at 0 deg at 15 m and `far` m, all
+// known to 1 mm (sharpScene with range noise `sigma_r`); built.
+struct PostsAndRay {
+  Scene s;
+  int post1, post2, near, far;
+};
+PostsAndRay postsAndRay(double sigma_r, double far) {
+  PostsAndRay p{sharpScene(diag2(sigma_r, deg2rad(0.5))), 0, 0, 0, 0};
+  p.post1 = p.s.addLandmark(polar(14, 45), diag2(1e-3, 1e-3));
+  p.post2 = p.s.addLandmark(polar(14, -45), diag2(1e-3, 1e-3));
+  p.near = p.s.addLandmark(polar(15, 0), diag2(1e-3, 1e-3));
+  p.far = p.s.addLandmark(polar(far, 0), diag2(1e-3, 1e-3));
+  p.s.build();
+  return p;
+}
+
 // --- interference cases -----------------------------------------------------------------------
 
 TEST(DJNN, Case1NoInterferenceAcceptsNN) {
@@ -92,12 +108,9 @@ TEST(DJNN, Case1NoInterferenceAcceptsNN) {
 // gives both observations to L4. Two unique pairs measure v_bar = (0.8, 0) (eq. 6); compensated,
 // L4's observation is at distance 0 and wins, and L3's observation re-pairs with L3.
 TEST(DJNN, Case2PartialInterferenceCompensatesAndReassigns) {
-  Scene s = sharpScene(diag2(0.4, deg2rad(0.5)));
-  const int l1 = s.addLandmark(polar(14, 45), diag2(1e-3, 1e-3));
-  const int l2 = s.addLandmark(polar(14, -45), diag2(1e-3, 1e-3));
-  const int l3 = s.addLandmark(polar(15, 0), diag2(1e-3, 1e-3));
-  const int l4 = s.addLandmark(polar(16.2, 0), diag2(1e-3, 1e-3));
-  s.build();
+  PostsAndRay p = postsAndRay(0.4, 16.2);
+  Scene& s = p.s;
+  const int l1 = p.post1, l2 = p.post2, l3 = p.near, l4 = p.far;
   const Eigen::Vector2d bias(0.8, 0.0);
   observeBiased(&s, s.true_landmarks[l1], bias, l1);
   observeBiased(&s, s.true_landmarks[l2], bias, l2);
@@ -478,12 +491,9 @@ TEST(DJNN, CostDoesNotGrowWithFarLandmarks) {
 // the loser takes the near landmark (1.4 m off): swapped, at a total Mahalanobis distance of 4.2
 // against 1.3 the right way round. The optimal assignment pairs each with its own landmark.
 TEST(DJNN, OptimalAssignmentUndoesASwapTheGreedyResolutionLeaves) {
-  Scene s = sharpScene(diag2(0.7, deg2rad(0.5)));
-  const int post1 = s.addLandmark(polar(14, 45), diag2(1e-3, 1e-3));
-  const int post2 = s.addLandmark(polar(14, -45), diag2(1e-3, 1e-3));
-  const int near = s.addLandmark(polar(15, 0), diag2(1e-3, 1e-3));
-  const int far = s.addLandmark(polar(16, 0), diag2(1e-3, 1e-3));
-  s.build();
+  PostsAndRay p = postsAndRay(0.7, 16.0);
+  Scene& s = p.s;
+  const int post1 = p.post1, post2 = p.post2, near = p.near, far = p.far;
   observeBiased(&s, s.true_landmarks[post1], Eigen::Vector2d::Zero(), post1);
   observeBiased(&s, s.true_landmarks[post2], Eigen::Vector2d::Zero(), post2);
   const int o_near = observeBiased(&s, s.true_landmarks[near], {0.7, 0.0}, near);

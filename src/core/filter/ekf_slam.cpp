@@ -218,35 +218,12 @@ bool EkfSlam::update(const std::vector<Pairing>& pairings, const RangeBearingMod
   Eigen::Map<Eigen::VectorXd> v(workspace(&v_, d), d);
   const bool first = linearisation_ == Linearisation::kFirstEstimate;
   for (int i = 0; i < m; ++i) {
-    const Pairing& p = pairings[i];
-    const int idx = indexOf(p.id);
-    if (idx < 0 || !p.z.allFinite() || !p.R.allFinite()) return false;
-    rows_[i] = stateRow(idx);
-    int clone = -1;
-    if (p.clone != kNoClone) {
-      const auto it = std::find(clones_.begin(), clones_.end(), p.clone);
-      if (it == clones_.end()) return false;
-      clone = static_cast<int>(it - clones_.begin());
+    Eigen::Vector2d vi;
+    if (!linearise(pairings[i], model, first, &rows_[i], &pose_rows_[i], &hv_[i], &hm_[i], &r_[i],
+                   &vi)) {
+      return false;
     }
-    pose_rows_[i] = clone < 0 ? 0 : mapEnd() + 3 * clone;
-    const Eigen::Vector3d xv = x_.segment<3>(pose_rows_[i]);
-    // The innovation always from the current estimate; only H's linearisation point moves.
-    Eigen::Vector2d z_hat =
-        first ? model.predict(xv, x_.segment<2>(rows_[i]), p.kind)
-              : model.predict(xv, x_.segment<2>(rows_[i]), p.kind, &hv_[i], &hm_[i]);
-    if (first) {
-      model.predict(clone < 0 ? xv : Eigen::Vector3d(clone_first_[clone]), first_[idx], p.kind,
-                    &hv_[i], &hm_[i]);
-    }
-    r_[i] = p.R;
-    Eigen::Vector2d mean;
-    Eigen::Matrix2d extra;
-    if (secondOrderTerms(idx, pose_rows_[i], model, p.kind, &mean, &extra)) {
-      z_hat += mean;
-      r_[i] += extra;
-    }
-    if (!z_hat.allFinite() || !hv_[i].allFinite() || !hm_[i].allFinite()) return false;
-    v.segment<2>(2 * i) = RangeBearingModel::innovation(p.z, z_hat, p.kind);
+    v.segment<2>(2 * i) = vi;
   }
 
   // P H^T: each 2-row block of H has a pose part and one landmark part, so it costs O(n m).
@@ -368,22 +345,45 @@ Eigen::Vector2d exponentialMove(double phi, const Eigen::Vector2d& u, const Eige
 
 }  // namespace
 
-bool EkfSlam::innovation(const Pairing& p, const RangeBearingModel& model, Eigen::Vector2d* v,
-                         Eigen::Matrix2d* S) const {
+bool EkfSlam::linearise(const Pairing& p, const RangeBearingModel& model, bool first, int* row,
+                        int* pose_row, Matrix23d* Hv, Eigen::Matrix2d* Hm, Eigen::Matrix2d* R,
+                        Eigen::Vector2d* v) const {
   const int idx = indexOf(p.id);
-  const int c = p.clone == kNoClone ? 0 : cloneRow(p.clone);
-  if (idx < 0 || c < 0 || !p.z.allFinite() || !p.R.allFinite()) return false;
-  const int r = stateRow(idx);
-  Matrix23d Hv;
-  Eigen::Matrix2d Hm;
-  Eigen::Vector2d z_hat = model.predict(x_.segment<3>(c), x_.segment<2>(r), p.kind, &Hv, &Hm);
-  Eigen::Matrix2d R = p.R;
+  if (idx < 0 || !p.z.allFinite() || !p.R.allFinite()) return false;
+  *row = stateRow(idx);
+  int clone = -1;
+  if (p.clone != kNoClone) {
+    const auto it = std::find(clones_.begin(), clones_.end(), p.clone);
+    if (it == clones_.end()) return false;
+    clone = static_cast<int>(it - clones_.begin());
+  }
+  *pose_row = clone < 0 ? 0 : mapEnd() + 3 * clone;
+  const Eigen::Vector3d xv = x_.segment<3>(*pose_row);
+  // The innovation always from the current estimate; only H's linearisation point moves.
+  Eigen::Vector2d z_hat = first ? model.predict(xv, x_.segment<2>(*row), p.kind)
+                                : model.predict(xv, x_.segment<2>(*row), p.kind, Hv, Hm);
+  if (first) {
+    model.predict(clone < 0 ? xv : Eigen::Vector3d(clone_first_[clone]), first_[idx], p.kind, Hv,
+                  Hm);
+  }
+  *R = p.R;
   Eigen::Vector2d mean;
   Eigen::Matrix2d extra;
-  if (secondOrderTerms(idx, c, model, p.kind, &mean, &extra)) {
+  if (secondOrderTerms(idx, *pose_row, model, p.kind, &mean, &extra)) {
     z_hat += mean;
-    R += extra;
+    *R += extra;
   }
+  if (!z_hat.allFinite() || !Hv->allFinite() || !Hm->allFinite()) return false;
+  *v = RangeBearingModel::innovation(p.z, z_hat, p.kind);
+  return true;
+}
+
+bool EkfSlam::innovation(const Pairing& p, const RangeBearingModel& model, Eigen::Vector2d* v,
+                         Eigen::Matrix2d* S) const {
+  int r = 0, c = 0;
+  Matrix23d Hv;
+  Eigen::Matrix2d Hm, R;
+  if (!linearise(p, model, false, &r, &c, &Hv, &Hm, &R, v)) return false;
   // Only the current part of P is read (the lower triangle, and the pose rows).
   const ConstMatrixView P = storedCovariance();
   const Eigen::Matrix3d Pvv = Eigen::Matrix3d(P.block<3, 3>(c, c)).selfadjointView<Eigen::Lower>();
@@ -395,7 +395,6 @@ bool EkfSlam::innovation(const Pairing& p, const RangeBearingModel& model, Eigen
   Eigen::Matrix2d s =
       Hv * Pvv * Hv.transpose() + cross + cross.transpose() + Hm * Pmm * Hm.transpose() + R;
   s = 0.5 * (s + s.transpose()).eval();
-  *v = RangeBearingModel::innovation(p.z, z_hat, p.kind);
   *S = s;
   return v->allFinite() && S->allFinite();
 }

@@ -262,6 +262,13 @@ class EkfSlam {
   friend class CompressedEkf;
 
   bool predictAugmented(const MotionStep& step);
+  /// One pairing as update() takes it: the state rows of its landmark and of its pose (the
+  /// current one, or its clone's), H's pose and landmark blocks (at the first estimates when
+  /// `first`), R with the second-order terms, and the innovation from the current estimate.
+  /// False when the landmark or the clone is unknown or anything is not finite.
+  bool linearise(const Pairing& p, const RangeBearingModel& model, bool first, int* row,
+                 int* pose_row, Matrix23d* Hv, Eigen::Matrix2d* Hm, Eigen::Matrix2d* R,
+                 Eigen::Vector2d* v) const;
   /// kInvariant: x <- exp(xi) x with xi the correction dx in invariant coordinates; each
   /// position's change is written to `moved` (zero elsewhere).
   void retractInvariant(const Eigen::Ref<const Eigen::VectorXd>& dx, Eigen::VectorXd* moved);

@@ -34,7 +34,8 @@ void OptimalAssignment::apply(const AssociationContext& ctx, const DjnnPaper& pa
       cost_(static_cast<Eigen::Index>(a), c) = mahalanobis <= paper.gate() ? score : kForbidden;
     }
   }
-  // The paper's own pairing is feasible, so a finite optimum exists; it is never worse.
+  // Where the paper's pairing lies within the gate it is feasible, so the optimum is never worse;
+  // where it used the wide gate (case 4) there may be no assignment within the gate, and it stays.
   if (!std::isfinite(solver_.solve(cost_, &row_to_col_))) return;
   for (std::size_t a = 0; a < rows_.size(); ++a) {
     int& assigned = scan->assign[rows_[a]];

@@ -514,6 +514,48 @@ TEST(DJNN, OptimalAssignmentUndoesASwapTheGreedyResolutionLeaves) {
   EXPECT_EQ(optimal.stats().reassigned, 2u);
 }
 
+// assign_unpaired: landmarks at 15 m and 16 m on one ray (sigma_r 0.7 m), returns 0.2 m and 1.0 m
+// beyond the far one. Both are nearest the far landmark; the first keeps it and the second, 2 m
+// from the near one (Mahalanobis 8.2), has no other landmark in the gate: the paper leaves it
+// unpaired. Re-paired, the first takes the near landmark (2.9) and the second the far one (2.0):
+// by eq. 5 that beats the first alone on the far one (0.1) plus "not in the map" for the second
+// where unmapped returns are rare (0.01 per m^2), and loses to it where they are common (1 per
+// m^2), when the second stays unpaired.
+TEST(DJNN, AssignUnpairedPairsAnInterferenceLoserUnlessNotInTheMapFitsBetter) {
+  PostsAndRay p = postsAndRay(0.7, 16.0);
+  Scene& s = p.s;
+  const int near = p.near, far = p.far;
+  observeBiased(&s, s.true_landmarks[p.post1], Eigen::Vector2d::Zero(), p.post1);
+  observeBiased(&s, s.true_landmarks[p.post2], Eigen::Vector2d::Zero(), p.post2);
+  const int o_first = observeBiased(&s, s.true_landmarks[far], {0.2, 0.0}, near);
+  const int o_second = observeBiased(&s, s.true_landmarks[far], {1.0, 0.0}, far);
+  const AssociationContext ctx = s.context();
+  const auto run = [&](const char* assign_unpaired, const char* clutter) {
+    DJNN d = makeDjnn({{"optimal_assignment", "true"},
+                       {"assign_unpaired", assign_unpaired},
+                       {"clutter_density", clutter}});
+    const AssociationResult r = d.associate(ctx);
+    return std::make_pair(r, d.stats());
+  };
+
+  const auto [paper, paper_stats] = run("false", "0.01");
+  EXPECT_EQ(paper.landmark[o_first], Scene::idOf(far));  // the problem is real
+  EXPECT_NE(paper.decision[o_second], Decision::kPaired);
+
+  const auto [rare, rare_stats] = run("true", "0.01");
+  EXPECT_EQ(rare.decision[o_first], Decision::kPaired);
+  EXPECT_EQ(rare.landmark[o_first], Scene::idOf(near));
+  EXPECT_EQ(rare.decision[o_second], Decision::kPaired);
+  EXPECT_EQ(rare.landmark[o_second], Scene::idOf(far));
+  EXPECT_EQ(rare_stats.unpaired_assigned, 1u);
+  EXPECT_EQ(rare_stats.reassigned, 1u);
+
+  const auto [common, common_stats] = run("true", "1");
+  EXPECT_EQ(common.landmark[o_first], Scene::idOf(far));
+  EXPECT_NE(common.decision[o_second], Decision::kPaired);
+  EXPECT_EQ(common_stats.unpaired_assigned, 0u);
+}
+
 TEST(DJNN, TwoObservationsCompeteForOneLandmark) {
   Scene s;
   const int l = s.addLandmark({10, 0});

@@ -142,7 +142,9 @@ TEST(DJNNTentativePose, JointDecisionHoldsAnAmbiguousShift) {
     int paired = 0;
     for (Decision x : r.decision) paired += x == Decision::kPaired;
     EXPECT_EQ(paired, joint ? 0 : 3) << joint;
-    if (joint) EXPECT_GT(d.stats().joint_held, 0u);
+    if (joint) {
+      EXPECT_GT(d.stats().joint_held, 0u);
+    }
   }
 }
 

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -215,24 +216,28 @@ AssociationResult DJNN::associate(const AssociationContext& ctx) {
   density_test_.observe(ctx, paper_, scan_);
   last_case_ = paper_.resolveInterference(ctx, &scan_, &stats_);
   ++stats_.cases[static_cast<int>(last_case_)];
+  // "Not in the map", for the assignment, the joint decision and the density test alike: a
+  // landmark the map does not hold yet, or clutter, per m^2 (UnmappedReturns: measured where the
+  // map is).
+  const double clutter = p_.paper.sensor.clutter_density;
+  const double unmapped_prior = density_test_.density() + clutter;
+  const double null_cost = -2.0 * std::log(unmapped_.density(unmapped_prior));
+  // Without a density of "not in the map" yet (an estimate before any mapped landmark was in
+  // view), nothing weighs a pairing against it.
+  const bool unmapped_known = unmapped_prior > 0.0;
   // The same pairings, exchanged where that fits them better jointly.
-  assignment_.apply(ctx, paper_, &scan_, &stats_);
+  assignment_.apply(ctx, paper_,
+                    unmapped_known ? null_cost : std::numeric_limits<double>::infinity(), &scan_,
+                    &stats_);
 
   // Extensions on the pairing: unpaired but ambiguous observations make no feature; at a loop
   // closure the joint decision weighs every hypothesis the density test weighs, the scan shifted
   // onto gated neighbours included, and more.
   ambiguity_.apply(ctx, paper_, &scan_);
-  // "Not in the map", for the joint decision and the density test alike: a landmark the map does
-  // not hold yet, or clutter, per m^2 (UnmappedReturns: measured where the map is).
-  const double clutter = p_.paper.sensor.clutter_density;
-  const double unmapped_prior = density_test_.density() + clutter;
-  const double null_cost = -2.0 * std::log(unmapped_.density(unmapped_prior));
   const JointDecision::Parts parts{
       paper_, ambiguity_.gate(), null_cost, clutter, spacing_, remembered_, confirmation_,
   };
-  // Without a density of "not in the map" yet (an estimate before any mapped landmark was in
-  // view), the joint decision has no null hypothesis: the scan is decided as without it.
-  const bool unmapped_known = unmapped_prior > 0.0;
+  // Without it the joint decision has no null hypothesis: the scan is decided as without it.
   if (!joint_.on() || !unmapped_known || !joint_.decide(ctx, parts, &scan_, &stats_)) {
     density_test_.apply(ctx, null_cost, &scan_, &stats_);
     unmapped_.observe(ctx, scan_, p_.paper.sensor.max_range);

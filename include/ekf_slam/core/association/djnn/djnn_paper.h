@@ -73,6 +73,8 @@ struct DjnnStats {
   std::uint64_t held_joined = 0;
   /// Observations the optimal assignment gave another landmark than the paper's resolution.
   std::uint64_t reassigned = 0;
+  /// Observations the paper left unpaired that the optimal assignment paired (assign_unpaired).
+  std::uint64_t unpaired_assigned = 0;
 };
 
 /// The paper's parameters (names as read; defaults in docs/djnn.md).

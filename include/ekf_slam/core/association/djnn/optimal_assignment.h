@@ -6,6 +6,10 @@
 // the sum of their eq. 5 scores (with the scan's compensation) is least, within the paper's gate:
 // the joint maximum-likelihood pairing of the observations the paper pairs. It changes which
 // landmark an observation goes to, never whether it is paired.
+// With assign_unpaired, the returns the resolution left unpaired although a landmark lies within
+// the gate join the assignment too, each with "not in the map" as its alternative (at the cost
+// the density test weighs, eq. 5's units): an interference loser whose landmark another return
+// fits worse takes it, and the paired ones keep a landmark each.
 #pragma once
 
 #include <vector>
@@ -24,12 +28,15 @@ class OptimalAssignment {
  public:
   struct Params {
     bool optimal_assignment = true;
+    bool assign_unpaired = true;
   };
   void read(const ParameterReader& r);
   const Params& params() const { return p_; }
   /// Re-pairs scan->assign's paired observations at least total score; counts the changes.
-  void apply(const AssociationContext& ctx, const DjnnPaper& paper, LocalScan* scan,
-             DjnnStats* stats);
+  /// null_cost: -2 ln of the density of "not in the map" at an unpaired observation (the
+  /// density test's), +inf when unknown (then no unpaired observation joins).
+  void apply(const AssociationContext& ctx, const DjnnPaper& paper, double null_cost,
+             LocalScan* scan, DjnnStats* stats);
 
  private:
   Params p_;

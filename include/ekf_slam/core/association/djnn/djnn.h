@@ -18,8 +18,8 @@
 //                                                        the pose is corrected
 //   OptimalAssignment    optimal_assignment              returns of close landmarks left swapped by
 //                                                        the greedy resolution of interference
-//                        assign_unpaired                 its losers left unpaired, and rejected as
-//                                                        ambiguous, where a landmark was free for them
+//                        assign_unpaired                 interference losers rejected as ambiguous
+//                                                        where a landmark was free for them
 //   DensityTest          density_test, landmark_density, estimate_landmark_density
 //                                                        a new landmark paired with an old one
 //   missed-detection profile (missed_detection_profile.h): the defaults of the parts above for a

@@ -1,6 +1,7 @@
 #include "ekf_slam/core/association/djnn/optimal_assignment.h"
 
 #include <cmath>
+#include <cstddef>
 #include <limits>
 
 #include "ekf_slam/core/association/joint_ml.h"
@@ -34,15 +35,22 @@ void OptimalAssignment::apply(const AssociationContext& ctx, const DjnnPaper& pa
     if (scan->assign[i] >= 0) rows_.push_back(i);
   }
   const int paired = static_cast<int>(rows_.size());
-  // The unpaired observations with a landmark in the gate, once "not in the map" has a cost.
+  // The unpaired observations with a landmark in the gate, once "not in the map" has a cost;
+  // their scores are kept for the cost matrix.
+  unpaired_scores_.clear();
   if (p_.assign_unpaired && std::isfinite(null_cost)) {
     for (int i = 0; i < scan->observations(); ++i) {
       if (scan->assign[i] >= 0) continue;
+      const std::size_t start = unpaired_scores_.size();
+      bool gated = false;
       for (int c = 0; c < n; ++c) {
-        if (std::isfinite(score(i, c))) {
-          rows_.push_back(i);
-          break;
-        }
+        unpaired_scores_.push_back(score(i, c));
+        gated = gated || std::isfinite(unpaired_scores_.back());
+      }
+      if (gated) {
+        rows_.push_back(i);
+      } else {
+        unpaired_scores_.resize(start);
       }
     }
   }
@@ -55,11 +63,13 @@ void OptimalAssignment::apply(const AssociationContext& ctx, const DjnnPaper& pa
   // paired). eq. 5 leaves out -2 ln 2 pi of -2 ln N(v; 0, S); the null's cost does the same.
   const double log_2pi2 = 2.0 * std::log(2.0 * M_PI);
   cost_.setConstant(rows, n + unpaired, kForbidden);
-  for (int a = 0; a < rows; ++a) {
+  for (int a = 0; a < paired; ++a) {
     for (int c = 0; c < n; ++c) cost_(a, c) = score(rows_[a], c);
-    if (a >= paired) {
-      cost_(a, n + a - paired) = unmappedCostAt(null_cost, ctx.observations()[rows_[a]]) - log_2pi2;
-    }
+  }
+  for (int a = paired; a < rows; ++a) {
+    const int k = a - paired;
+    for (int c = 0; c < n; ++c) cost_(a, c) = unpaired_scores_[static_cast<std::size_t>(k) * n + c];
+    cost_(a, n + k) = unmappedCostAt(null_cost, ctx.observations()[rows_[a]]) - log_2pi2;
   }
   // Where the paper's pairing lies within the gate it is feasible, so the optimum is never worse;
   // where it used the wide gate (case 4) there may be no assignment within the gate, and it stays.

@@ -42,6 +42,7 @@ class OptimalAssignment {
   Params p_;
   AssignmentSolver solver_;
   std::vector<int> rows_, row_to_col_;
+  std::vector<double> unpaired_scores_;  ///< per unpaired row: its n candidates' scores
   Eigen::MatrixXd cost_;
 };
 

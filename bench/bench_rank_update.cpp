@@ -8,7 +8,9 @@
 // Every variant is counted at N^2 d flops (a triangle-only update), so the rates compare times:
 //   triangle  Eigen's selfadjointView<Lower>().rankUpdate (lower triangle only): the floor;
 //   +mirror   the same plus a copy of the lower triangle onto the upper (the update before);
-//   kernel    lowerRankDowndate (lower triangle in register tiles, what EkfSlam::update runs);
+//   kernel    lowerRankDowndate (lower triangle in register tiles, what EkfSlam::update runs),
+//             with the kernel the process picked (AVX2 where the CPU has it; the header says);
+//   baseline  the same with the build's baseline kernel (SSE2 on x86-64): the same result;
 //   invariant lowerProductDowndate with the invariant EKF's rank-2 re-expression in the same
 //             pass (depth d + 2; jacobians: invariant, docs/consistency.md), still counted at
 //             N^2 d: its rate against the kernel's is what the re-expression costs;
@@ -73,6 +75,13 @@ void run(Eigen::Index n, Eigen::Index d, int repeat) {
     ekf_slam::lowerRankDowndate(ekf_slam::MatrixView(P.data(), n, n, Eigen::OuterStride<>(n)), W,
                                 &workspace);
   });
+  const ekf_slam::RankDowndateKernel picked = ekf_slam::rankDowndateKernel();
+  ekf_slam::selectRankDowndateKernel(ekf_slam::RankDowndateKernel::kBaseline);
+  const double base = bestSeconds(P0, repeat, [&](Eigen::MatrixXd& P) {
+    ekf_slam::lowerRankDowndate(ekf_slam::MatrixView(P.data(), n, n, Eigen::OuterStride<>(n)), W,
+                                &workspace);
+  });
+  ekf_slam::selectRankDowndateKernel(picked);
   Eigen::MatrixXd A, B;
   invariantOperands(W, &A, &B);
   const double inv = bestSeconds(P0, repeat, [&](Eigen::MatrixXd& P) {
@@ -81,9 +90,9 @@ void run(Eigen::Index n, Eigen::Index d, int repeat) {
   });
   const double full =
       bestSeconds(P0, repeat, [&](Eigen::MatrixXd& P) { P.noalias() -= W * W.transpose(); });
-  std::printf("%6ld %4ld | %9.2f %9.2f %9.2f %9.2f %9.2f\n", static_cast<long>(n),
+  std::printf("%6ld %4ld | %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f\n", static_cast<long>(n),
               static_cast<long>(d), flops / tri * 1e-9, flops / mir * 1e-9, flops / pan * 1e-9,
-              flops / inv * 1e-9, flops / full * 1e-9);
+              flops / base * 1e-9, flops / inv * 1e-9, flops / full * 1e-9);
 }
 
 // The run's rank downdates alone: every shape (N, d) of `file` (n,d,updates) timed best of
@@ -129,8 +138,11 @@ int replay(const std::string& file, int repeat) {
     updates += count;
     ++shapes;
   }
-  std::printf("replay of %s: %ld updates in %ld shapes, %.3f GFLOP of rank downdates, best of %d\n",
-              file.c_str(), updates, shapes, flops * 1e-9, repeat);
+  std::printf(
+      "replay of %s: %ld updates in %ld shapes, %.3f GFLOP of rank downdates, best of %d, kernel "
+      "%s\n",
+      file.c_str(), updates, shapes, flops * 1e-9, repeat,
+      ekf_slam::toString(ekf_slam::rankDowndateKernel()));
   std::printf("triangle (floor) %.3f s (%.2f GFLOP/s) | kernel %.3f s (%.2f GFLOP/s)\n", tri,
               flops / tri * 1e-9, ker, flops / ker * 1e-9);
   std::printf("invariant EKF's downdate (depth d + 2) %.3f s (%.2f GFLOP/s at N^2 d), %+.0f %%\n",
@@ -169,11 +181,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_rank_update: give both N and d, or neither\n");
     return 2;
   }
-  std::printf("GFLOP/s at N^2 d flops, best of %d (Eigen %d.%d.%d, %s)\n", repeat,
+  std::printf("GFLOP/s at N^2 d flops, best of %d (Eigen %d.%d.%d, %s; kernel: %s)\n", repeat,
               EIGEN_WORLD_VERSION, EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION,
-              Eigen::SimdInstructionSetsInUse());
-  std::printf("%6s %4s | %9s %9s %9s %9s %9s\n", "N", "d", "triangle", "+mirror", "kernel",
-              "invariant", "full");
+              Eigen::SimdInstructionSetsInUse(),
+              ekf_slam::toString(ekf_slam::rankDowndateKernel()));
+  std::printf("%6s %4s | %9s %9s %9s %9s %9s %9s\n", "N", "d", "triangle", "+mirror", "kernel",
+              "baseline", "invariant", "full");
   if (sizes.size() == 2) {
     run(sizes[0], sizes[1], repeat);
     return 0;

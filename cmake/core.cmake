@@ -92,3 +92,16 @@ add_library(ekf_slam_core
   src/core/smoothing/smoothing_recorder.cpp)
 target_include_directories(ekf_slam_core PUBLIC include)
 target_link_libraries(ekf_slam_core PUBLIC Eigen3::Eigen)
+# The rank downdate's AVX2 kernel (src/core/filter/symmetric_rank_update.cpp picks it at run time
+# on CPUs that have AVX2; same result to the bit). Not with EKF_SLAM_NATIVE, whose own kernel is
+# already as wide.
+include(CheckCXXCompilerFlag)
+check_cxx_compiler_flag(-mavx2 EKF_SLAM_COMPILER_HAS_MAVX2)
+if(CMAKE_SYSTEM_PROCESSOR MATCHES "^(x86_64|AMD64|amd64)$" AND EKF_SLAM_COMPILER_HAS_MAVX2
+   AND NOT EKF_SLAM_NATIVE)
+  target_sources(ekf_slam_core PRIVATE src/core/filter/symmetric_rank_update_avx2.cpp)
+  set_source_files_properties(src/core/filter/symmetric_rank_update_avx2.cpp PROPERTIES
+                              COMPILE_OPTIONS -mavx2 SKIP_PRECOMPILE_HEADERS ON)
+  set_source_files_properties(src/core/filter/symmetric_rank_update.cpp PROPERTIES
+                              COMPILE_DEFINITIONS EKF_SLAM_AVX2_KERNEL)
+endif()

@@ -134,33 +134,83 @@ TEST(EkfStorage, UpdateDoesNotAllocateOnceWarm) {
   EXPECT_GT(g_mallocs.load(), 0);
 }
 
+// Every kernel this build and CPU can run (the test runs each in turn).
+std::vector<RankDowndateKernel> availableKernels() {
+  std::vector<RankDowndateKernel> kernels;
+  for (const RankDowndateKernel k : {RankDowndateKernel::kBaseline, RankDowndateKernel::kAvx2}) {
+    if (rankDowndateKernelAvailable(k)) kernels.push_back(k);
+  }
+  return kernels;
+}
+
+// Puts the process's kernel back when the test ends.
+struct KernelRestorer {
+  RankDowndateKernel kernel = rankDowndateKernel();
+  ~KernelRestorer() { selectRankDowndateKernel(kernel); }
+};
+
 TEST(EkfStorage, DowndateEqualsTheProductOnTheLowerTriangle) {
-  std::mt19937 rng(3);
+  const KernelRestorer restore;
+  for (const RankDowndateKernel kernel : availableKernels()) {
+    SCOPED_TRACE(toString(kernel));
+    ASSERT_TRUE(selectRankDowndateKernel(kernel));
+    std::mt19937 rng(3);
+    std::normal_distribution<double> g;
+    std::vector<double> workspace;  // reused across sizes, as EkfSlam does
+    for (const Eigen::Index n : {1, 7, 128, 129, 300, 1500}) {
+      // d = 130: more columns of W than one pass of the kernel takes.
+      for (const Eigen::Index d : {1, 2, 12, 130}) {
+        if (n * n * d > 300 * 300 * 130) continue;
+        Eigen::MatrixXd W(n, d), A(n, n);
+        for (Eigen::Index i = 0; i < W.size(); ++i) W(i) = 0.1 * g(rng);
+        for (Eigen::Index i = 0; i < A.size(); ++i) A(i) = g(rng);
+        // Stored with a leading dimension larger than n, as EkfSlam keeps it.
+        Eigen::MatrixXd store = Eigen::MatrixXd::Constant(n + 5, n + 3, 42.0);
+        store.topLeftCorner(n, n) = A + A.transpose();
+        MatrixView P(store.data(), n, n, Eigen::OuterStride<>(n + 5));
+        const Eigen::MatrixXd before = P;
+        const Eigen::MatrixXd want = before - W * W.transpose();
+        lowerRankDowndate(P, W, &workspace);
+        const Eigen::MatrixXd lower = P.triangularView<Eigen::Lower>();
+        const Eigen::MatrixXd want_lower = want.triangularView<Eigen::Lower>();
+        EXPECT_LT((lower - want_lower).cwiseAbs().maxCoeff(), 1e-12) << n << " x " << d;
+        const Eigen::MatrixXd upper = P.triangularView<Eigen::StrictlyUpper>();
+        const Eigen::MatrixXd upper_before = before.triangularView<Eigen::StrictlyUpper>();
+        EXPECT_EQ(upper, upper_before);
+        // Nothing outside the n x n corner is touched.
+        EXPECT_TRUE((store.bottomRows(5).array() == 42.0).all());
+        EXPECT_TRUE((store.rightCols(3).array() == 42.0).all());
+      }
+    }
+  }
+}
+
+// The AVX2 kernel's only business is speed: its result equals the baseline's to the bit (the
+// same products added in the same order, no FMA), so that a run's output does not depend on the
+// CPU it ran on.
+TEST(EkfStorage, KernelsAgreeToTheBit) {
+  if (!rankDowndateKernelAvailable(RankDowndateKernel::kAvx2)) {
+    GTEST_SKIP() << "this build or CPU has no AVX2 kernel";
+  }
+  const KernelRestorer restore;
+  std::mt19937 rng(5);
   std::normal_distribution<double> g;
-  std::vector<double> workspace;  // reused across sizes, as EkfSlam does
-  for (const Eigen::Index n : {1, 7, 128, 129, 300, 1500}) {
-    // d = 130: more columns of W than one pass of the kernel takes.
-    for (const Eigen::Index d : {1, 2, 12, 130}) {
-      if (n * n * d > 300 * 300 * 130) continue;
-      Eigen::MatrixXd W(n, d), A(n, n);
+  for (const Eigen::Index n : {5, 413, 700}) {
+    for (const Eigen::Index d : {2, 14, 131}) {
+      Eigen::MatrixXd W(n, d), B(n, d), A(n, n);
       for (Eigen::Index i = 0; i < W.size(); ++i) W(i) = 0.1 * g(rng);
+      for (Eigen::Index i = 0; i < B.size(); ++i) B(i) = 0.1 * g(rng);
       for (Eigen::Index i = 0; i < A.size(); ++i) A(i) = g(rng);
-      // Stored with a leading dimension larger than n, as EkfSlam keeps it.
-      Eigen::MatrixXd store = Eigen::MatrixXd::Constant(n + 5, n + 3, 42.0);
-      store.topLeftCorner(n, n) = A + A.transpose();
-      MatrixView P(store.data(), n, n, Eigen::OuterStride<>(n + 5));
-      const Eigen::MatrixXd before = P;
-      const Eigen::MatrixXd want = before - W * W.transpose();
-      lowerRankDowndate(P, W, &workspace);
-      const Eigen::MatrixXd lower = P.triangularView<Eigen::Lower>();
-      const Eigen::MatrixXd want_lower = want.triangularView<Eigen::Lower>();
-      EXPECT_LT((lower - want_lower).cwiseAbs().maxCoeff(), 1e-12) << n << " x " << d;
-      const Eigen::MatrixXd upper = P.triangularView<Eigen::StrictlyUpper>();
-      const Eigen::MatrixXd upper_before = before.triangularView<Eigen::StrictlyUpper>();
-      EXPECT_EQ(upper, upper_before);
-      // Nothing outside the n x n corner is touched.
-      EXPECT_TRUE((store.bottomRows(5).array() == 42.0).all());
-      EXPECT_TRUE((store.rightCols(3).array() == 42.0).all());
+      std::vector<Eigen::MatrixXd> results;
+      for (const RankDowndateKernel kernel :
+           {RankDowndateKernel::kBaseline, RankDowndateKernel::kAvx2}) {
+        ASSERT_TRUE(selectRankDowndateKernel(kernel));
+        Eigen::MatrixXd P = A + A.transpose();
+        lowerRankDowndate(MatrixView(P.data(), n, n, Eigen::OuterStride<>(n)), W);
+        lowerProductDowndate(MatrixView(P.data(), n, n, Eigen::OuterStride<>(n)), W, B);
+        results.push_back(P);
+      }
+      EXPECT_TRUE((results[0].array() == results[1].array()).all()) << n << " x " << d;
     }
   }
 }

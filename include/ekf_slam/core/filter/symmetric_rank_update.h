@@ -2,6 +2,7 @@
 // covariance update (docs/benchmarks_vp.md). ROS-free (Eigen only).
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include <Eigen/Core>
@@ -12,6 +13,24 @@ namespace ekf_slam {
 /// corner of a larger buffer so that it can grow without reallocating.
 using MatrixView = Eigen::Map<Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
 using ConstMatrixView = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
+
+/// The kernels the downdates below can run. They give the same result to the bit (each element
+/// adds its d products in the same order, and none contracts them into FMA); they differ in
+/// speed: AVX2's 4-lane vectors run the Victoria Park update about 1.6x faster than SSE2's 2
+/// (docs/benchmarks_vp.md).
+enum class RankDowndateKernel : std::uint8_t {
+  kBaseline = 0,  ///< the build's own vector width: SSE2 on x86-64, AVX under EKF_SLAM_NATIVE
+  kAvx2 = 1,      ///< x86-64 builds without EKF_SLAM_NATIVE, on CPUs that report AVX2
+};
+const char* toString(RankDowndateKernel kernel);  ///< "baseline", "avx2"
+/// Whether this build and this CPU can run the kernel.
+bool rankDowndateKernelAvailable(RankDowndateKernel kernel);
+/// The kernel in use: AVX2 where available, unless the environment sets
+/// EKF_SLAM_PORTABLE_KERNEL (non-empty and not "0") when the process first asks.
+RankDowndateKernel rankDowndateKernel();
+/// Selects the kernel for the whole process (tests, benchmarks); false, and nothing changes, when
+/// it is not available.
+bool selectRankDowndateKernel(RankDowndateKernel kernel);
 
 /// P -= W W^T on the lower triangle (diagonal included) of an N x N P, W N x d; the strict upper
 /// triangle is not touched. N^2 d flops, in register tiles of its own (faster here than Eigen's

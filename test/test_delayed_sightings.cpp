@@ -317,6 +317,69 @@ TEST(DelayedSightings, CloneCountIsCapped) {
   EXPECT_EQ(p.ekf().numClones(), 0u);
 }
 
+// Landmark 1's feature 17: tentative while seen, reported out of reach at scan `out` (not seen
+// then; -1: never), admitted at scan 6, then paired.
+ScriptedAssociator::Script outOfReachScript(int out) {
+  return [out](int scan, const AssociationContext& ctx) {
+    AssociationResult r = firstLandmark(scan, ctx);
+    if (scan == out) r.out_of_reach_features.push_back(17);
+    if (ctx.numObservations() < 2) return r;
+    if (scan > 6) {
+      r.pair(1, 1);
+    } else if (scan == 6) {
+      r.decision[1] = Decision::kNew;
+      r.feature[1] = 17;
+      r.ended_features.push_back(17);
+    } else {
+      r.decision[1] = Decision::kTentative;
+      r.feature[1] = 17;
+    }
+    return r;
+  };
+}
+
+TEST(DelayedSightings, AFeatureSeenOnceLetsItsSightingGoOutOfReach) {
+  // Seen at scan 0, out of reach at 1, seen again at 4-5 and admitted at 6.
+  const auto gap = [](int k) { return k == 0 || k >= 4; };
+  auto released_assoc = std::make_shared<ScriptedAssociator>(outOfReachScript(1));
+  SlamPipeline released(linearConfig(), released_assoc);
+  std::size_t clones_after_1 = 99;
+  for (int k = 0; k < kScans; ++k) {
+    OdometryInput o;
+    o.stamp = k - 0.5;
+    o.twist = Eigen::Vector2d(1.0, 0.0);
+    released.addOdometry(o);
+    released.processObservations(k, sightings(k, gap(k)));
+    if (k == 1) clones_after_1 = released.ekf().numClones();
+  }
+  EXPECT_EQ(clones_after_1, 0u);
+  EXPECT_EQ(released.counters().out_of_reach_sightings, 1u);
+  EXPECT_EQ(released.counters().delayed_sightings, 2u);  // scans 4 and 5
+  // As if scan 0 had never seen it.
+  auto later_assoc = std::make_shared<ScriptedAssociator>(outOfReachScript(-1));
+  SlamPipeline later(linearConfig(), later_assoc);
+  drive(&later, [](int k) { return k >= 4; });
+  expectSameState(released.ekf(), later.ekf(), 1e-12);
+
+  // Off: the feature keeps its three.
+  PipelineConfig keep = linearConfig();
+  keep.release_out_of_reach = false;
+  auto kept_assoc = std::make_shared<ScriptedAssociator>(outOfReachScript(1));
+  SlamPipeline kept(keep, kept_assoc);
+  EXPECT_GE(drive(&kept, gap), 1u);
+  EXPECT_EQ(kept.counters().out_of_reach_sightings, 0u);
+  EXPECT_EQ(kept.counters().delayed_sightings, 3u);
+}
+
+TEST(DelayedSightings, AFeatureSeenMoreThanOnceKeepsItsSightingsOutOfReach) {
+  // Seen at scans 0-2, out of reach at 3, seen again at 4-5 and admitted at 6: all five count.
+  auto assoc = std::make_shared<ScriptedAssociator>(outOfReachScript(3));
+  SlamPipeline p(linearConfig(), assoc);
+  EXPECT_GE(drive(&p, [](int k) { return k != 3; }), 3u);
+  EXPECT_EQ(p.counters().out_of_reach_sightings, 0u);
+  EXPECT_EQ(p.counters().delayed_sightings, 5u);
+}
+
 // DJNN seeing all around to 30 m, with `params` on top.
 std::shared_ptr<DJNN> djnnAllAround(const std::map<std::string, std::string>& params = {}) {
   auto djnn = std::make_shared<DJNN>();
@@ -369,6 +432,38 @@ std::vector<Observation> sightedAt(int k, const std::vector<Eigen::Vector2d>& wh
     scan.push_back(z);
   }
   return scan;
+}
+
+// A point seen once 28.3 m away behind the vehicle, in the sensor region but outside DJNN's valid
+// one (its misses do not count with penalty_region valid), is reported out of reach once the
+// vehicle has driven it beyond the sensor's 30 m range plus range_margin (3 m: 33 m, passed at
+// scan 6), and its kept sighting goes with its clone. With a 10 m margin it stays within reach
+// (40 m), and the clone stays.
+TEST(DelayedSightings, DjnnReportsAFeatureDrivenOutOfReach) {
+  std::map<bool, std::size_t> clones_at_end;
+  for (const bool near_margin : {true, false}) {
+    SCOPED_TRACE(near_margin ? "3 m margin" : "10 m margin");
+    auto djnn = std::make_shared<DJNN>();
+    djnn->configure(MapParameterSource(
+        std::map<std::string, std::string>{{"sensor_range", "30"},
+                                           {"field_of_view", "6.283185"},
+                                           {"range_margin", near_margin ? "3" : "10"},
+                                           {"penalty_region", "valid"}}));
+    SlamPipeline pipeline(linearConfig(), djnn);
+    for (int k = 0; k < kScans; ++k) {
+      OdometryInput o;
+      o.stamp = k - 0.5;
+      o.twist = Eigen::Vector2d(1.0, 0.0);
+      pipeline.addOdometry(o);
+      // The point at (-20, 20) at scan 0; later scans a new point 12 m ahead each.
+      pipeline.processObservations(k, sightedAt(k, {k == 0 ? Eigen::Vector2d(-20.0, 20.0)
+                                                           : Eigen::Vector2d(k + 12.0, -4.0)}));
+    }
+    EXPECT_EQ(pipeline.counters().out_of_reach_sightings, near_margin ? 1u : 0u);
+    clones_at_end[near_margin] = pipeline.ekf().numClones();
+  }
+  // Within reach the first point's clone is still held.
+  EXPECT_EQ(clones_at_end[false], clones_at_end[true] + 1);
 }
 
 // Scan k's decision for one point at `where(k)` by DJNN in a pipeline, whose pose clones give

@@ -110,6 +110,21 @@ void DelayedSightings::keep(const ScanReport& report) {
     if (aside.empty()) earlier_.erase(run);
   }
   for (const FeatureKey f : a.ended_features) end(f);
+  if (config_.release_out_of_reach) {
+    // Only a feature seen once: most likely clutter or a passer-by (a landmark in view is seen
+    // again in the scans that follow). One seen more often is probably a landmark the vehicle
+    // will come back to, and its sightings are worth their clones.
+    for (const FeatureKey f : a.out_of_reach_features) {
+      std::size_t kept = 0;
+      for (auto* from : {&features_, &earlier_}) {
+        const auto it = from->find(f);
+        if (it != from->end()) kept += it->second.size();
+      }
+      if (kept != 1) continue;
+      counters_.out_of_reach_sightings += kept;
+      end(f);
+    }
+  }
   while (filter_.ekf().numClones() > static_cast<std::size_t>(config_.max_pose_clones))
     dropOldestClone();
 }

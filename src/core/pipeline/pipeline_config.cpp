@@ -272,6 +272,7 @@ PipelineConfig readPipelineConfig(const ParameterSource& params) {
   c.second_order_observations = r.flag("second_order_observations", c.second_order_observations);
   c.delayed_sightings = r.flag("delayed_sightings", c.delayed_sightings);
   c.max_pose_clones = r.integer("max_pose_clones", c.max_pose_clones, 1, 10000);
+  c.release_out_of_reach = r.flag("release_out_of_reach", c.release_out_of_reach);
   c.restarted_sighting_probability =
       r.probability("restarted_sighting_probability", c.restarted_sighting_probability);
   c.cekf_area_size = r.positive("cekf_area_size", c.cekf_area_size);

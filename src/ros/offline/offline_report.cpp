@@ -379,6 +379,7 @@ OfflineSummary writeOfflineReport(const OfflineOptions& o, const BagContents& ba
                    {"delayed_sightings", k.delayed_sightings},
                    {"rejected_delayed_updates", k.rejected_delayed_updates},
                    {"dropped_sightings", k.dropped_sightings},
+                   {"out_of_reach_sightings", k.out_of_reach_sightings},
                    {"lost_map_removed", k.lost_map_removed},
                    {"onset_rollbacks", k.onset_rollbacks}};
   j["relocaliser"] = loop.relocaliser;

@@ -48,6 +48,12 @@ struct AssociationResult {
   std::vector<FeatureKey> feature;
   /// Features no longer tracked (dropped, restarted or admitted): their sightings are let go.
   std::vector<FeatureKey> ended_features;
+  /// Features still tracked that lie out of the sensor's reach, so that the vehicle must drive
+  /// back before it can sight them again (DJNN: farther from the sensor than its range plus
+  /// range_margin, found by its sweep over the tentative features). With release_out_of_reach the
+  /// pipeline lets the sighting of such a feature seen once go, and the pose clone held only for
+  /// it, rather than carry it in the state until the feature ends.
+  std::vector<FeatureKey> out_of_reach_features;
   /// (earlier run, new run): a feature restarted because its sightings were not one static point
   /// (DJNN's static test), whose earlier sightings may still be the same object's (a static
   /// point's chance failure). The pipeline keeps them with the new run and, when it is admitted,
@@ -68,6 +74,7 @@ struct AssociationResult {
     feature.assign(n, kNoFeature);
     remove.clear();
     ended_features.clear();
+    out_of_reach_features.clear();
     restarted_features.clear();
     gate_refused = 0;
     notice.clear();

@@ -12,7 +12,10 @@
 // after the run's own batch, each of them that lies within the gate
 // (restarted_sighting_probability) of the landmark is applied in a second batch: a static point's
 // chance failure loses nothing, and a mover's earlier track stays out.
-// The clones cost 3 state rows each: at most max_pose_clones are kept (the oldest go first).
+// The clones cost 3 state rows each: at most max_pose_clones are kept (the oldest go first), and
+// a feature seen once that the associator reports out of the sensor's reach lets its sighting go
+// (release_out_of_reach): it is most likely clutter or a passer-by, and its clone would otherwise
+// stay in every update until it ends (DJNN keeps such a feature up to its timeout).
 #pragma once
 
 #include <cstddef>
@@ -45,7 +48,8 @@ class DelayedSightings {
   /// state changed.
   bool admit(ScanReport* report);
   /// Keeps this scan's sightings of tentative features against a clone of the current pose, lets
-  /// the ended features go, and drops the oldest clones beyond max_pose_clones.
+  /// the ended features go, and those out of reach (release_out_of_reach), and drops the oldest
+  /// clones beyond max_pose_clones.
   void keep(const ScanReport& report);
   /// Lets every sighting and clone go (reset, lost, a map loaded).
   void clear();

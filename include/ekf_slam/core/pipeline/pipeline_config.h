@@ -204,6 +204,11 @@ struct PipelineConfig {
   /// (core/pipeline/delayed_sightings.h; filter ekf, slam mode), keeping at most max_pose_clones.
   bool delayed_sightings = true;
   int max_pose_clones = 40;
+  /// Let the kept sighting of a feature seen once go when the associator reports it out of the
+  /// sensor's reach (AssociationResult::out_of_reach_features): a feature seen once at the edge
+  /// of the view and then driven past would otherwise hold its clone until the associator drops
+  /// it. Features seen more than once keep their sightings.
+  bool release_out_of_reach = true;
   /// A restarted feature's earlier sightings (AssociationResult::restarted_features) are applied
   /// at its admission when each lies within chi2(2, restarted_sighting_probability) of the
   /// landmark, after the run's own sightings.

@@ -175,6 +175,9 @@ struct PipelineCounters {
   std::uint64_t delayed_sightings = 0;
   std::uint64_t rejected_delayed_updates = 0;
   std::uint64_t dropped_sightings = 0;
+  /// Kept sightings let go because their feature, seen once, was out of the sensor's reach
+  /// (release_out_of_reach).
+  std::uint64_t out_of_reach_sightings = 0;
   /// Of delayed_sightings: a restarted feature's earlier sightings that fit its landmark.
   std::uint64_t restarted_sightings = 0;
   /// Landmarks mapped from the lost scans, or still recent when they began, that the associator's

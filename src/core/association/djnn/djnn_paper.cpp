@@ -657,14 +657,19 @@ void DjnnPaper::countFeatureEvidence(const AssociationContext& ctx, LocalScan* s
   }
 
   // Amortised timeout sweep over the whole tentative set (features the robot never revisits).
-  if (p_.tentative_timeout > 0.0 && tentatives_.slots() > 0) {
-    for (std::size_t n = 0; n < kSweepPerScan && n < tentatives_.slots(); ++n) {
-      const int slot = tentatives_.nextSweepSlot();
-      const Tentative& t = tentatives_[slot];
-      if (t.alive && stamp - t.last_seen > p_.tentative_timeout) {
-        dropFeature(ctx, slot, true, rules);
-        ++stats->tentative_dropped;
-      }
+  // Not the paper's: it also reports the features out of the sensor's reach (beyond its range by
+  // more than the margin), whose sightings the pipeline may then let go: the vehicle must drive
+  // back before it can see them again, where turning would do for one merely out of the wedge.
+  const double reach = p_.sensor.max_range + p_.range_margin;
+  for (std::size_t n = 0; n < kSweepPerScan && n < tentatives_.slots(); ++n) {
+    const int slot = tentatives_.nextSweepSlot();
+    const Tentative& t = tentatives_[slot];
+    if (!t.alive) continue;
+    if (p_.tentative_timeout > 0.0 && stamp - t.last_seen > p_.tentative_timeout) {
+      dropFeature(ctx, slot, true, rules);
+      ++stats->tentative_dropped;
+    } else if ((t.position - scan->sensor_pose.head<2>()).norm() > reach) {
+      result->out_of_reach_features.push_back(t.key);
     }
   }
   result->ended_features.insert(result->ended_features.end(), ended_.begin(), ended_.end());

@@ -79,19 +79,19 @@ void lowerProductDowndate(MatrixView P, const Eigen::Ref<const Eigen::MatrixXd>&
   if (n == 0 || d == 0) return;
   std::vector<double> local;
   std::vector<double>& packed = workspace ? *workspace : local;
+  // The kernel's two entry points, from the file compiled for it.
+  auto packed_size = &baseline_kernel::packedSize;
+  auto downdate = &baseline_kernel::productDowndate;
 #if defined(EKF_SLAM_AVX2_KERNEL)
   if (rankDowndateKernel() == RankDowndateKernel::kAvx2) {
-    const auto size = static_cast<std::size_t>(avx2_kernel::packedSize(n, d));
-    if (packed.size() < size) packed.resize(size);
-    avx2_kernel::productDowndate(P.data(), P.outerStride(), n, A.data(), A.outerStride(), B.data(),
-                                 B.outerStride(), d, packed.data());
-    return;
+    packed_size = &avx2_kernel::packedSize;
+    downdate = &avx2_kernel::productDowndate;
   }
 #endif
-  const auto size = static_cast<std::size_t>(baseline_kernel::packedSize(n, d));
+  const auto size = static_cast<std::size_t>(packed_size(n, d));
   if (packed.size() < size) packed.resize(size);
-  baseline_kernel::productDowndate(P.data(), P.outerStride(), n, A.data(), A.outerStride(),
-                                   B.data(), B.outerStride(), d, packed.data());
+  downdate(P.data(), P.outerStride(), n, A.data(), A.outerStride(), B.data(), B.outerStride(), d,
+           packed.data());
 }
 
 void mirrorLowerTriangle(MatrixView P) {
